@@ -1,0 +1,263 @@
+"""The sonar: beampattern, lobe rule, frequency grid and leaf model (MODEL.md sections 2-5).
+
+Angles are in degrees at this edge (names ending ``_deg``) and radians inside; lengths in m,
+frequencies in Hz, times in s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _core
+from ._validate import finite_scalar, positive_scalar
+from .absorption import Atmosphere
+
+#: The one-way pattern is at -3 dB (amplitude 0.7079) at half the beamwidth.
+HALF_POWER_AMPLITUDE = 0.7079
+
+
+def sigma_from_beamwidth_deg(beamwidth_deg: float) -> float:
+    """Gaussian width sigma (radians) of a full -3 dB one-way beamwidth (degrees)."""
+    return (math.radians(beamwidth_deg) / 2.0) / math.sqrt(2.0 * -math.log(HALF_POWER_AMPLITUDE))
+
+
+def horseshoe_bat_beamwidth_deg(f_khz: float) -> float:
+    """Beamwidth (deg) of the horseshoe bat at ``f_khz`` kHz, the fit of Ming et al. (2017)."""
+    f = float(f_khz)
+    return 0.011333 * f * f * f - 2.3219 * f * f + 156.15 * f - 3402.7
+
+
+@dataclass(frozen=True)
+class Beam:
+    """A one-way Gaussian beampattern ``S = A1 exp(-(a daz^2 + 2b daz del + c del^2))``.
+
+    Give either ``beamwidth_deg`` (full -3 dB width, circular beam) or ``sigma_deg`` (one value,
+    or ``(sigma_az, sigma_el)`` for an elliptical beam). ``rotation_deg`` rotates the ellipse,
+    ``center_deg = (az0, el0)`` moves its centre, ``amplitude`` is A1.
+    """
+
+    beamwidth_deg: Optional[float] = None
+    sigma_deg: Union[None, float, Tuple[float, float]] = None
+    rotation_deg: float = 0.0
+    center_deg: Tuple[float, float] = (0.0, 0.0)
+    amplitude: float = 1.0
+
+    def __post_init__(self):
+        if self.beamwidth_deg is not None and self.sigma_deg is not None:
+            raise ValueError("give beamwidth_deg or sigma_deg, not both")
+        if self.beamwidth_deg is None and self.sigma_deg is None:
+            raise ValueError("a Beam needs beamwidth_deg or sigma_deg")
+        if self.beamwidth_deg is not None:
+            bw = finite_scalar(self.beamwidth_deg, "beamwidth_deg")
+            if not 0.0 < bw < 180.0:
+                raise ValueError(f"beamwidth_deg must be in (0, 180), got {bw}")
+        else:
+            s = np.atleast_1d(np.asarray(self.sigma_deg, dtype=np.float64))
+            if s.shape not in ((1,), (2,)) or not np.all(np.isfinite(s)) or np.any(s <= 0):
+                raise ValueError(f"sigma_deg must be one or two finite values > 0, got {self.sigma_deg}")
+        finite_scalar(self.rotation_deg, "rotation_deg")
+        az0, el0 = (finite_scalar(v, "center_deg") for v in self.center_deg)
+        if abs(az0) > 180 or abs(el0) > 90:
+            raise ValueError(f"center_deg must have |az| <= 180 and |el| <= 90, got {self.center_deg}")
+        positive_scalar(self.amplitude, "amplitude")
+
+    @property
+    def sigmas_rad(self) -> Tuple[float, float]:
+        """(sigma_x, sigma_y) in radians: widths along azimuth and elevation before rotation."""
+        if self.beamwidth_deg is not None:
+            s = sigma_from_beamwidth_deg(self.beamwidth_deg)
+            return s, s
+        s = np.atleast_1d(np.asarray(self.sigma_deg, dtype=np.float64))
+        sx = math.radians(float(s[0]))
+        sy = math.radians(float(s[-1]))
+        return sx, sy
+
+    def _core_tuple(self):
+        sx, sy = self.sigmas_rad
+        return (float(self.amplitude), sx, sy, math.radians(self.rotation_deg),
+                math.radians(self.center_deg[0]), math.radians(self.center_deg[1]))
+
+    def gain(self, az_rad, el_rad):
+        """One-way gain at azimuth/elevation (radians), NumPy."""
+        amp, sx, sy, th, az0, el0 = self._core_tuple()
+        a = math.cos(th) ** 2 / (2 * sx * sx) + math.sin(th) ** 2 / (2 * sy * sy)
+        b = -math.sin(2 * th) / (4 * sx * sx) + math.sin(2 * th) / (4 * sy * sy)
+        c = math.sin(th) ** 2 / (2 * sx * sx) + math.cos(th) ** 2 / (2 * sy * sy)
+        daz = np.asarray(az_rad) - az0
+        daz = np.where(daz > np.pi, daz - 2 * np.pi, daz)
+        daz = np.where(daz < -np.pi, daz + 2 * np.pi, daz)
+        dl = np.asarray(el_rad) - el0
+        return amp * np.exp(-(a * daz * daz + 2.0 * b * daz * dl + c * dl * dl))
+
+
+_LOBES = ("detectable", "cone")
+_MODELS = ("paper", "physical_optics")
+_WINDOWS = ("hann", "rect")
+
+#: Beamwidth used when neither ``beamwidth_deg`` nor ``beam`` is given (Ming's canonical 30 deg).
+DEFAULT_BEAMWIDTH_DEG = 30.0
+
+
+@dataclass(frozen=True)
+class Sonar:
+    """Every parameter of the echo model (MODEL.md), with its defaults.
+
+    Beam: ``beamwidth_deg`` (full -3 dB width, default 30) or a :class:`Beam` as ``beam`` for
+    sigma per axis, rotation and beam centre. ``receiver`` gives the receiver its own pattern
+    (default: the emitter's, so the two-way gain is ``S^2``).
+
+    Grid: sample rate ``fs`` (Hz), record length ``n_samples``, ``band_hz = (f_lo, f_hi)``,
+    ``sound_speed`` (m/s). Band bins run from ``round(f_lo/df)`` to ``round(f_hi/df)``,
+    ``df = fs/n_samples``.
+
+    Lobe: ``lobe="detectable"`` (the authors' rule with ``threshold_db`` T, ``r0_m``, ``p0_pa``,
+    ``p_ref_pa``: on the axis the reach is 10 m) or ``"cone"`` with ``cone_half_angle_deg``.
+    Leaves beyond ``max_range_m`` (default: the record's range ``v n / (2 fs)``) never count.
+
+    Leaves: ``leaf_model="paper"`` (Ming et al.'s fit) or ``"physical_optics"``; ``spreading``
+    keeps the 1/r^2 of MODEL.md (False cancels it, as the authors' UAV scripts did); ``gain`` g;
+    ``window`` "hann" (periodic, over the band bins) or "rect"; ``absorption`` None or an
+    :class:`Atmosphere` (ISO 9613-1).
+
+    Guards: a leaf closer than ``min_range_m`` to a pulse raises (``too_close="raise"``) or is
+    left out (``"skip"``); leaves with ``k a < min_ka`` at the band's lowest frequency are
+    refused (the leaf models do not hold in the Rayleigh regime).
+    """
+
+    beamwidth_deg: Optional[float] = None
+    beam: Optional[Beam] = None
+    receiver: Optional[Beam] = None
+    fs: float = 400e3
+    n_samples: int = 24_000
+    band_hz: Tuple[float, float] = (60e3, 80e3)
+    sound_speed: float = 340.0
+    lobe: str = "detectable"
+    threshold_db: float = 20.0
+    cone_half_angle_deg: Optional[float] = None
+    max_range_m: Optional[float] = None
+    r0_m: float = 0.1
+    p0_pa: float = 2.0
+    p_ref_pa: float = 20e-6
+    leaf_model: str = "paper"
+    spreading: bool = True
+    gain: float = 0.2
+    window: str = "hann"
+    absorption: Optional[Atmosphere] = None
+    min_range_m: float = 0.01
+    too_close: str = "raise"
+    min_ka: float = 0.5
+    _core: Any = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        if self.beam is not None and self.beamwidth_deg is not None:
+            raise ValueError("give beamwidth_deg or beam, not both")
+        if self.beam is None:
+            bw = DEFAULT_BEAMWIDTH_DEG if self.beamwidth_deg is None else self.beamwidth_deg
+            object.__setattr__(self, "beam", Beam(beamwidth_deg=bw))
+        for name, b in (("beam", self.beam), ("receiver", self.receiver)):
+            if b is not None and not isinstance(b, Beam):
+                raise TypeError(f"{name} must be a batecho.Beam, got {type(b).__name__}")
+        if self.lobe not in _LOBES:
+            raise ValueError(f"lobe must be one of {_LOBES}, got {self.lobe!r}")
+        if self.leaf_model not in _MODELS:
+            raise ValueError(f"leaf_model must be one of {_MODELS}, got {self.leaf_model!r}")
+        if self.window not in _WINDOWS:
+            raise ValueError(f"window must be one of {_WINDOWS}, got {self.window!r}")
+        if self.too_close not in ("raise", "skip"):
+            raise ValueError(f"too_close must be 'raise' or 'skip', got {self.too_close!r}")
+        if self.absorption is not None and not isinstance(self.absorption, Atmosphere):
+            raise TypeError("absorption must be None or a batecho.Atmosphere")
+        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer)):
+            raise TypeError(f"n_samples must be an integer, got {self.n_samples!r}")
+        if len(tuple(self.band_hz)) != 2:
+            raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
+        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in self.band_hz)
+        fs = positive_scalar(self.fs, "fs")
+        if f_hi > fs / 2:
+            raise ValueError(f"band upper edge {f_hi} Hz is above the Nyquist frequency fs/2 = {fs / 2} Hz")
+        cone = None
+        if self.lobe == "cone":
+            if self.cone_half_angle_deg is None:
+                raise ValueError("lobe='cone' needs cone_half_angle_deg")
+            h = finite_scalar(self.cone_half_angle_deg, "cone_half_angle_deg")
+            if not 0.0 < h < 180.0:
+                raise ValueError(f"cone_half_angle_deg must be in (0, 180), got {h}")
+            cone = math.radians(h)
+        atm = None
+        if self.absorption is not None:
+            a = self.absorption
+            atm = (float(a.temperature_c), float(a.relative_humidity), float(a.pressure_pa))
+        core = _core.Sonar(
+            self.beam._core_tuple(),
+            None if self.receiver is None else self.receiver._core_tuple(),
+            self.lobe, float(self.threshold_db), float(self.r0_m), float(self.p0_pa),
+            float(self.p_ref_pa), cone,
+            None if self.max_range_m is None else float(self.max_range_m),
+            fs, int(self.n_samples), f_lo, f_hi, float(self.sound_speed), self.leaf_model,
+            bool(self.spreading), float(self.gain), self.window, atm, float(self.min_range_m),
+            self.too_close, float(self.min_ka),
+        )
+        object.__setattr__(self, "_core", core)
+
+    @classmethod
+    def horseshoe_bat(cls, f_khz: float = 70.0, **kwargs) -> "Sonar":
+        """A sonar whose beamwidth is the horseshoe-bat fit ``BW(f)`` at ``f_khz`` (one value for
+        the whole band, as the authors did)."""
+        return cls(beamwidth_deg=horseshoe_bat_beamwidth_deg(f_khz), **kwargs)
+
+    def replace(self, **changes) -> "Sonar":
+        """A copy with some parameters changed."""
+        if "beamwidth_deg" in changes and "beam" not in changes:
+            changes["beam"] = None
+        return dataclasses.replace(self, **changes)
+
+    # Derived quantities -------------------------------------------------------------------
+    @property
+    def bins(self) -> Tuple[int, int]:
+        """(k0, k1): first and last band bin (inclusive) of the length-``n_samples`` rFFT."""
+        return self._core.bins
+
+    @property
+    def n_bins(self) -> int:
+        """M, the number of band bins."""
+        k0, k1 = self.bins
+        return k1 - k0 + 1
+
+    @property
+    def delta_f(self) -> float:
+        """Bin spacing fs / n_samples (Hz)."""
+        return self.fs / self.n_samples
+
+    @property
+    def freqs(self) -> np.ndarray:
+        """(M,) band-bin frequencies ``k fs / n`` (Hz)."""
+        return self._core.freqs
+
+    @property
+    def times(self) -> np.ndarray:
+        """(n_samples,) sample times (s)."""
+        return np.arange(self.n_samples) / self.fs
+
+    @property
+    def record_range_m(self) -> float:
+        """Range covered by the record, ``v n / (2 fs)`` (m)."""
+        return self.sound_speed * self.n_samples / (2.0 * self.fs)
+
+    @property
+    def range_limit_m(self) -> float:
+        """Leaves beyond this range never count (m)."""
+        return self._core.range_limit
+
+    @property
+    def max_reach_m(self) -> float:
+        """The farthest a counting leaf can be (m): 10 m on the axis with the defaults."""
+        return self._core.max_reach
+
+
+__all__ = ["Sonar", "Beam", "Atmosphere", "horseshoe_bat_beamwidth_deg", "sigma_from_beamwidth_deg",
+           "DEFAULT_BEAMWIDTH_DEG"]

@@ -1,0 +1,38 @@
+//! Errors of the pure-Rust core. Every failure is a value, never a panic; the bindings turn
+//! these into Python `ValueError`s with the same message.
+
+use std::fmt;
+
+/// An input or model error, with a message that names the offending input.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// The caller gave a value outside its domain (NaN, negative radius, band above Nyquist...).
+    InvalidInput(String),
+    /// A leaf is closer to a pulse position than the sonar's `min_range`.
+    TooClose { pose: usize, leaf: usize, range: f64, min_range: f64 },
+    /// An OBJ/MTL file could not be read or understood.
+    Obj(String),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::InvalidInput(msg) | Error::Obj(msg) => f.write_str(msg),
+            Error::TooClose { pose, leaf, range, min_range } => write!(
+                f,
+                "leaf {leaf} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \
+                 the far-field echo model does not hold there (move the pose, lower min_range_m, \
+                 or pass too_close=\"skip\" to leave such leaves out)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Shorthand for an `InvalidInput` error.
+pub(crate) fn invalid<T>(msg: impl Into<String>) -> Result<T> {
+    Err(Error::InvalidInput(msg.into()))
+}

@@ -1,0 +1,243 @@
+//! Which leaves count for a pose (MODEL.md section 3): the exact per-leaf test in f64, and a
+//! conservative traversal of an obvhs BVH over the leaf centres that only ever skips nodes
+//! that provably hold no counting leaf. The index never changes the answer: every candidate
+//! goes through the same exact test as the brute-force scan.
+
+use crate::error::{Error, Result};
+use crate::pose::{cross, dot, norm, sub, Pose, V3};
+use crate::scene::Scene;
+use crate::sonar::{LobeRule, Sonar, TooClose};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// A leaf seen from a pose: range (m), unit direction, azimuth and elevation (rad), two-way gain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafView {
+    pub range: f64,
+    pub dir: V3,
+    pub az: f64,
+    pub el: f64,
+    pub gain: f64,
+}
+
+/// The exact per-leaf decision.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Decision {
+    Out,
+    /// Closer than `min_range` (or at the pose itself); carries the range.
+    TooClose(f64),
+    In(LeafView),
+}
+
+/// The exact f64 test of MODEL.md section 3 for one leaf centre. The reference implementation
+/// (`batecho.reference`) performs the same operations in the same order.
+#[inline]
+pub fn classify(sonar: &Sonar, pose: &Pose, center: V3) -> Decision {
+    let dx = sub(center, pose.position);
+    let r = dot(dx, dx).sqrt();
+    if !(r >= sonar.params.min_range) {
+        return Decision::TooClose(r);
+    }
+    if r > sonar.range_limit {
+        return Decision::Out;
+    }
+    let e = [dx[0] / r, dx[1] / r, dx[2] / r];
+    let ed = dot(e, pose.forward);
+    let el_ = dot(e, pose.left);
+    let eu = dot(e, pose.up);
+    if let LobeRule::Cone { .. } = sonar.params.lobe {
+        if ed < sonar.cos_half_angle {
+            return Decision::Out;
+        }
+    }
+    let az = el_.atan2(ed);
+    let el = eu.atan2((ed * ed + el_ * el_).sqrt());
+    let gain = sonar.two_way_gain(az, el);
+    if let LobeRule::Detectable { .. } = sonar.params.lobe {
+        if !(r <= (sonar.reach_sq_per_gain * gain).sqrt()) {
+            return Decision::Out;
+        }
+    }
+    Decision::In(LeafView { range: r, dir: e, az, el, gain })
+}
+
+/// Smallest |wrap(az - az0)| interval pieces for `az` in `[azc - h, azc + h]`: returns up to
+/// two intervals of `daz` inside [-pi, pi].
+fn daz_intervals(azc: f64, h: f64, az0: f64) -> ([(f64, f64); 2], usize) {
+    if h >= PI {
+        return ([(-PI, PI), (0.0, 0.0)], 1);
+    }
+    let mut dc = azc - az0;
+    if dc > PI {
+        dc -= 2.0 * PI;
+    }
+    if dc < -PI {
+        dc += 2.0 * PI;
+    }
+    let (lo, hi) = (dc - h, dc + h);
+    if hi > PI {
+        ([(lo, PI), (-PI, hi - 2.0 * PI)], 2)
+    } else if lo < -PI {
+        ([(-PI, hi), (lo + 2.0 * PI, PI)], 2)
+    } else {
+        ([(lo, hi), (0.0, 0.0)], 1)
+    }
+}
+
+/// Relative slack of the conservative node test: bounds are loosened by this much so that
+/// rounding in the bound itself can never prune a counting leaf.
+const SLACK: f64 = 1e-9;
+
+/// Conservative test: may any point of the box `[lo, hi]` count for this pose?
+pub fn box_may_count(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> bool {
+    let p = pose.position;
+    let mut d2 = 0.0;
+    for i in 0..3 {
+        let t = if p[i] < lo[i] {
+            lo[i] - p[i]
+        } else if p[i] > hi[i] {
+            p[i] - hi[i]
+        } else {
+            0.0
+        };
+        d2 += t * t;
+    }
+    let rmin = d2.sqrt() * (1.0 - SLACK);
+    if rmin <= sonar.params.min_range * (1.0 + SLACK) {
+        return true; // may hold a too-close leaf, which must be reported
+    }
+    if rmin > sonar.range_limit {
+        return false;
+    }
+    // Angular extent: the bounding sphere of the box, seen from the pose.
+    let c = [(lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5];
+    let rad = norm(sub(hi, lo)) * 0.5 * (1.0 + SLACK);
+    let v = sub(c, p);
+    let dist = norm(v);
+    if !(dist > rad) {
+        return true;
+    }
+    let delta = (rad / dist).asin() + SLACK;
+    let vd = dot(v, pose.forward);
+    let vl = dot(v, pose.left);
+    let vu = dot(v, pose.up);
+    match sonar.params.lobe {
+        LobeRule::Cone { half_angle } => {
+            let gamma_c = norm(cross(v, pose.forward)).atan2(vd);
+            gamma_c - delta <= half_angle + SLACK
+        }
+        LobeRule::Detectable { .. } => {
+            let azc = vl.atan2(vd);
+            let elc = vu.atan2((vd * vd + vl * vl).sqrt());
+            let (e_lo, e_hi) = ((elc - delta).max(-FRAC_PI_2), (elc + delta).min(FRAC_PI_2));
+            let h = if elc.abs() + delta >= FRAC_PI_2 {
+                PI
+            } else {
+                (delta.sin() / elc.cos()).min(1.0).asin() + SLACK
+            };
+            let gmax_one = |b: &crate::beam::GaussianBeam| -> f64 {
+                let (ivs, n) = daz_intervals(azc, h, b.az0);
+                let qmin = ivs[..n]
+                    .iter()
+                    .map(|&(a0, a1)| b.quad_min_over_rect(a0, a1, e_lo - b.el0, e_hi - b.el0))
+                    .fold(f64::INFINITY, f64::min);
+                b.amplitude * (-qmin).exp()
+            };
+            let gtx = gmax_one(&sonar.params.emitter);
+            let gmax = match &sonar.params.receiver {
+                None => gtx * gtx,
+                Some(rx) => gtx * gmax_one(rx),
+            };
+            let reach = (sonar.reach_sq_per_gain * gmax).sqrt() * (1.0 + SLACK);
+            rmin <= reach
+        }
+    }
+}
+
+/// Visit every leaf index the BVH cannot rule out (a superset of the counting leaves).
+pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl FnMut(u32)) {
+    let bvh = &scene.bvh;
+    if bvh.nodes.is_empty() {
+        return;
+    }
+    let node_box = |i: usize| {
+        let a = bvh.nodes[i].aabb();
+        (
+            [a.min.x as f64, a.min.y as f64, a.min.z as f64],
+            [a.max.x as f64, a.max.y as f64, a.max.z as f64],
+        )
+    };
+    let mut stack: Vec<u32> = Vec::with_capacity(64);
+    stack.push(0);
+    while let Some(ni) = stack.pop() {
+        let node = &bvh.nodes[ni as usize];
+        let (lo, hi) = node_box(ni as usize);
+        if !box_may_count(sonar, pose, lo, hi) {
+            continue;
+        }
+        if node.is_leaf() {
+            let first = node.first_index as usize;
+            for k in first..first + node.prim_count as usize {
+                visit(bvh.primitive_indices[k]);
+            }
+        } else {
+            stack.push(node.first_index + 1);
+            stack.push(node.first_index);
+        }
+    }
+}
+
+/// One counting leaf: its index, range, two-way gain and incidence angle `beta` in [0, pi/2].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Member {
+    pub index: u32,
+    pub range: f64,
+    pub gain: f64,
+    pub beta: f64,
+}
+
+/// Incidence angle between the unit direction `e` and the unit normal `n`, folded to [0, pi/2].
+/// Computed as `atan2(|e x n|, e . n)`, which stays accurate at normal and grazing incidence.
+#[inline]
+pub fn incidence_angle(e: V3, n: V3) -> f64 {
+    let b = norm(cross(e, n)).atan2(dot(e, n));
+    b.min(PI - b)
+}
+
+/// How the candidates are found; the result is the same either way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Search {
+    Bvh,
+    BruteForce,
+}
+
+/// The counting leaves for one pose, sorted by leaf index. `pose_index` only labels errors.
+pub fn members(scene: &Scene, sonar: &Sonar, pose: &Pose, pose_index: usize, search: Search) -> Result<Vec<Member>> {
+    let mut out: Vec<Member> = Vec::new();
+    let mut too_close: Option<(usize, f64)> = None;
+    let mut take = |i: u32| {
+        let i_us = i as usize;
+        match classify(sonar, pose, scene.centers[i_us]) {
+            Decision::Out => {}
+            Decision::TooClose(r) => {
+                if sonar.params.too_close == TooClose::Error && too_close.is_none_or(|(j, _)| i_us < j) {
+                    too_close = Some((i_us, r));
+                }
+            }
+            Decision::In(v) => out.push(Member {
+                index: i,
+                range: v.range,
+                gain: v.gain,
+                beta: incidence_angle(v.dir, scene.normals[i_us]),
+            }),
+        }
+    };
+    match search {
+        Search::Bvh => bvh_candidates(scene, sonar, pose, &mut take),
+        Search::BruteForce => (0..scene.len() as u32).for_each(&mut take),
+    }
+    if let Some((leaf, range)) = too_close {
+        return Err(Error::TooClose { pose: pose_index, leaf, range, min_range: sonar.params.min_range });
+    }
+    out.sort_unstable_by_key(|m| m.index);
+    Ok(out)
+}

@@ -1,0 +1,1 @@
+//! OBJ loading (tobj): leaves as disks and the bark mesh. (Work in progress.)

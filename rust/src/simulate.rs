@@ -1,0 +1,76 @@
+//! Echoes for many poses: the lobe query, the band spectrum and the impulse response of each
+//! pose, poses in parallel.
+
+use crate::error::{invalid, Result};
+use crate::impulse::impulse_from_band;
+use crate::lobe::{members, Search};
+use crate::pose::Pose;
+use crate::scene::Scene;
+use crate::sonar::Sonar;
+use crate::spectrum::band_spectrum;
+use rayon::prelude::*;
+
+/// Echoes of `p` poses: spectra `(p, M)` as separate real and imaginary parts, impulses
+/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose.
+pub struct Echoes {
+    pub n_bins: usize,
+    pub spectrum_re: Vec<f64>,
+    pub spectrum_im: Vec<f64>,
+    pub impulse: Vec<f64>,
+    pub n_leaves: Vec<u64>,
+}
+
+/// The leaf models hold for `k a >= min_ka`; refuse smaller leaves, naming the smallest.
+pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
+    let k_lo = sonar.wavenumbers[0];
+    let (i, a) = scene
+        .radii
+        .iter()
+        .copied()
+        .enumerate()
+        .fold((0, f64::INFINITY), |acc, (i, a)| if a < acc.1 { (i, a) } else { acc });
+    if k_lo * a < sonar.params.min_ka {
+        return invalid(format!(
+            "leaf {i} has radius {a:e} m, so k a = {:.4} at the band's lowest frequency {} Hz, below min_ka = {}; \
+             the leaf models are not valid that small (remove such leaves or lower min_ka knowingly)",
+            k_lo * a,
+            sonar.freqs[0],
+            sonar.params.min_ka
+        ));
+    }
+    Ok(())
+}
+
+pub fn simulate(scene: &Scene, sonar: &Sonar, poses: &[Pose], with_impulse: bool, search: Search) -> Result<Echoes> {
+    check_leaf_sizes(scene, sonar)?;
+    let m = sonar.n_bins();
+    let n = sonar.params.n_samples;
+    let per_pose: Vec<(Vec<f64>, Vec<f64>, Vec<f64>, u64)> = poses
+        .par_iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            let mem = members(scene, sonar, pose, i, search)?;
+            let (re, im) = band_spectrum(sonar, scene, &mem);
+            let mut y = Vec::new();
+            if with_impulse {
+                y = vec![0.0; n];
+                impulse_from_band(n, sonar.k0, &re, &im, &mut y);
+            }
+            Ok((re, im, y, mem.len() as u64))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut out = Echoes {
+        n_bins: m,
+        spectrum_re: Vec::with_capacity(poses.len() * m),
+        spectrum_im: Vec::with_capacity(poses.len() * m),
+        impulse: Vec::with_capacity(if with_impulse { poses.len() * n } else { 0 }),
+        n_leaves: Vec::with_capacity(poses.len()),
+    };
+    for (re, im, y, c) in per_pose {
+        out.spectrum_re.extend_from_slice(&re);
+        out.spectrum_im.extend_from_slice(&im);
+        out.impulse.extend_from_slice(&y);
+        out.n_leaves.push(c);
+    }
+    Ok(out)
+}

@@ -1,0 +1,78 @@
+//! The band spectrum of one pose (MODEL.md section 5):
+//! `Y_k = w_k sum_i A_ki exp(j phi_ki)`, accumulated in f64 over (leaf, bin).
+//!
+//! Leaves are summed in fixed chunks of [`LEAF_CHUNK`] (by ascending leaf index); the chunk
+//! partial sums are added in chunk order. The grouping depends only on the member list, never
+//! on the number of threads, so results are bit-identical for any `RAYON_NUM_THREADS`.
+
+use crate::kernel;
+use crate::lobe::Member;
+use crate::scene::Scene;
+use crate::sonar::Sonar;
+use rayon::prelude::*;
+
+/// Leaves per partial sum.
+pub const LEAF_CHUNK: usize = 256;
+/// Partial sums held at once (bounds memory to `BATCH * M` complex values).
+const BATCH: usize = 64;
+
+/// Per-leaf quantities the kernels need, in SI units.
+#[derive(Clone, Copy, Debug)]
+pub struct LeafTerm {
+    /// `g G / r^2` (or `g G` without spreading).
+    pub amp: f64,
+    pub range: f64,
+    pub beta: f64,
+    pub radius: f64,
+}
+
+pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
+    let p = &sonar.params;
+    let mut amp = p.gain * m.gain;
+    if p.spreading {
+        amp /= m.range * m.range;
+    }
+    LeafTerm { amp, range: m.range, beta: m.beta, radius: scene.radii[m.index as usize] }
+}
+
+/// Sum a chunk of leaves into `re`, `im` (length M, zeroed by the caller).
+fn chunk_sum(sonar: &Sonar, terms: &[LeafTerm], re: &mut [f64], im: &mut [f64]) {
+    let mut ws = kernel::Workspace::new(sonar.n_bins());
+    for t in terms {
+        kernel::add_leaf(sonar, t, &mut ws, re, im);
+    }
+}
+
+/// The windowed band spectrum `(re, im)` over the M band bins for the given members.
+pub fn band_spectrum(sonar: &Sonar, scene: &Scene, members: &[Member]) -> (Vec<f64>, Vec<f64>) {
+    let m = sonar.n_bins();
+    let terms: Vec<LeafTerm> = members.iter().map(|mb| leaf_term(sonar, scene, mb)).collect();
+    let mut re = vec![0.0; m];
+    let mut im = vec![0.0; m];
+    if terms.len() <= LEAF_CHUNK {
+        chunk_sum(sonar, &terms, &mut re, &mut im);
+    } else {
+        for batch in terms.chunks(LEAF_CHUNK * BATCH) {
+            let partials: Vec<(Vec<f64>, Vec<f64>)> = batch
+                .par_chunks(LEAF_CHUNK)
+                .map(|chunk| {
+                    let mut pr = vec![0.0; m];
+                    let mut pi = vec![0.0; m];
+                    chunk_sum(sonar, chunk, &mut pr, &mut pi);
+                    (pr, pi)
+                })
+                .collect();
+            for (pr, pi) in &partials {
+                for j in 0..m {
+                    re[j] += pr[j];
+                    im[j] += pi[j];
+                }
+            }
+        }
+    }
+    for j in 0..m {
+        re[j] *= sonar.window[j];
+        im[j] *= sonar.window[j];
+    }
+    (re, im)
+}
