@@ -1,29 +1,66 @@
 """batecho: the sensory world of an echolocating bat, for bat-inspired quadrotor drones.
 
 Forests of leaves (disks), a bat-like sonar, and the foliage echoes it hears, computed by a
-Rust core (BVH main-lobe query, parallel spectra) and checked against a NumPy reference.
-Units: metres, seconds, hertz; degrees only in names ending ``_deg``.
+Rust core (BVH main-lobe query, parallel spectra) and checked against a NumPy reference
+(:mod:`batecho.reference`). Units: metres, seconds, hertz; degrees only in names ending ``_deg``.
 """
 
+from . import trajectories
 from ._core import __version__
 from .absorption import Atmosphere
 from .echoes import Echoes, lobe_members, simulate
+from .ipp import (
+    PAPER_WINDOW,
+    IPPWarning,
+    RasterIntensity,
+    SquaredExponentialMixture,
+    integrate_intensity,
+    paper_intensity,
+    sample_ipp,
+)
 from .leaves import Leaves
+from .lsystem import Branching, LSystem, Segments, trunk_branching, turtle
+from .meshio import Mesh, ObjWarning, load_obj, write_obj
 from .poses import Poses, look_at
+from .quadrotor import Flight, Quadrotor, SonarMount
 from .scene import Scene
 from .sonar import Beam, Sonar, horseshoe_bat_beamwidth_deg
+from .trajectories import circle, figure_eight, line_to
 
 __all__ = [
-    "__version__",
+    "PAPER_WINDOW",
     "Atmosphere",
     "Beam",
+    "Branching",
     "Echoes",
+    "Flight",
+    "IPPWarning",
+    "LSystem",
     "Leaves",
+    "Mesh",
+    "ObjWarning",
     "Poses",
+    "Quadrotor",
+    "RasterIntensity",
     "Scene",
+    "Segments",
     "Sonar",
+    "SonarMount",
+    "SquaredExponentialMixture",
+    "__version__",
+    "circle",
+    "figure_eight",
     "horseshoe_bat_beamwidth_deg",
+    "integrate_intensity",
+    "line_to",
+    "load_obj",
     "lobe_members",
     "look_at",
+    "paper_intensity",
+    "sample_ipp",
     "simulate",
+    "trajectories",
+    "trunk_branching",
+    "turtle",
+    "write_obj",
 ]

@@ -24,8 +24,10 @@ def finite(arr: np.ndarray, name: str) -> np.ndarray:
     if bad.any():
         where = np.argwhere(bad)[0]
         idx = where[0] if arr.ndim > 0 else ()
-        raise ValueError(f"{name} must be finite; entry {tuple(where)} is {arr[tuple(where)]}"
-                         + (f" (row {idx})" if arr.ndim > 1 else ""))
+        raise ValueError(
+            f"{name} must be finite; entry {tuple(where)} is {arr[tuple(where)]}"
+            + (f" (row {idx})" if arr.ndim > 1 else "")
+        )
     return arr
 
 

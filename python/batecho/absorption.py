@@ -9,8 +9,9 @@ import numpy as np
 from ._validate import finite_scalar, positive_scalar
 
 
-def iso9613_alpha_db_per_m(freq_hz, temperature_c=20.0, relative_humidity=50.0,
-                           pressure_pa=101_325.0):
+def iso9613_alpha_db_per_m(
+    freq_hz, temperature_c=20.0, relative_humidity=50.0, pressure_pa=101_325.0
+):
     """Absorption coefficient (dB/m) at ``freq_hz`` for the given air, ISO 9613-1 eq. (5)."""
     f = np.asarray(freq_hz, dtype=np.float64)
     T = temperature_c + 273.15
@@ -19,13 +20,23 @@ def iso9613_alpha_db_per_m(freq_hz, temperature_c=20.0, relative_humidity=50.0,
     C = -6.8346 * (T01 / T) ** 1.261 + 4.6151
     h = relative_humidity * 10.0**C / pa  # molar concentration of water vapour, %
     frO = pa * (24.0 + 4.04e4 * h * (0.02 + h) / (0.391 + h))
-    frN = pa * (T / T0) ** -0.5 * (9.0 + 280.0 * h * np.exp(-4.170 * ((T / T0) ** (-1.0 / 3.0) - 1.0)))
+    frN = (
+        pa
+        * (T / T0) ** -0.5
+        * (9.0 + 280.0 * h * np.exp(-4.170 * ((T / T0) ** (-1.0 / 3.0) - 1.0)))
+    )
     f2 = f * f
-    return 8.686 * f2 * (
-        1.84e-11 / pa * np.sqrt(T / T0)
-        + (T / T0) ** -2.5
-        * (0.01275 * np.exp(-2239.1 / T) / (frO + f2 / frO)
-           + 0.1068 * np.exp(-3352.0 / T) / (frN + f2 / frN))
+    return (
+        8.686
+        * f2
+        * (
+            1.84e-11 / pa * np.sqrt(T / T0)
+            + (T / T0) ** -2.5
+            * (
+                0.01275 * np.exp(-2239.1 / T) / (frO + f2 / frO)
+                + 0.1068 * np.exp(-3352.0 / T) / (frN + f2 / frN)
+            )
+        )
     )
 
 
@@ -48,8 +59,9 @@ class Atmosphere:
 
     def alpha_db_per_m(self, freq_hz):
         """Absorption (dB/m, one way) at ``freq_hz``."""
-        return iso9613_alpha_db_per_m(freq_hz, self.temperature_c, self.relative_humidity,
-                                      self.pressure_pa)
+        return iso9613_alpha_db_per_m(
+            freq_hz, self.temperature_c, self.relative_humidity, self.pressure_pa
+        )
 
 
 __all__ = ["Atmosphere", "iso9613_alpha_db_per_m"]

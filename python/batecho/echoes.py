@@ -51,7 +51,9 @@ def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
     if not isinstance(sonar, Sonar):
         raise TypeError(f"sonar must be a batecho.Sonar, got {type(sonar).__name__}")
     if not isinstance(poses, Poses):
-        raise TypeError(f"poses must be batecho.Poses (see batecho.look_at), got {type(poses).__name__}")
+        raise TypeError(
+            f"poses must be batecho.Poses (see batecho.look_at), got {type(poses).__name__}"
+        )
     return sonar, poses
 
 
@@ -66,10 +68,18 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
     sc = as_scene(scene)
-    spec, imp, counts = _core.simulate_exact(sc._core, sonar._core, poses.positions, poses.forward,
-                                             poses.up, poses.left, True, "bvh")
-    return Echoes(spectrum=spec, freqs=sonar.freqs, impulse=imp, times=sonar.times,
-                  n_leaves=counts.astype(np.int64), sonar=sonar, poses=poses)
+    spec, imp, counts = _core.simulate_exact(
+        sc._core, sonar._core, poses.positions, poses.forward, poses.up, poses.left, True, "bvh"
+    )
+    return Echoes(
+        spectrum=spec,
+        freqs=sonar.freqs,
+        impulse=imp,
+        times=sonar.times,
+        n_leaves=counts.astype(np.int64),
+        sonar=sonar,
+        poses=poses,
+    )
 
 
 def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") -> np.ndarray:
@@ -82,8 +92,9 @@ def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") 
     if len(pose) != 1:
         raise ValueError(f"lobe_members takes one pose; got {len(pose)} (index it: poses[i])")
     sc = as_scene(scene)
-    return _core.lobe_members(sc._core, sonar._core, pose.positions, pose.forward, pose.up,
-                              pose.left, search)
+    return _core.lobe_members(
+        sc._core, sonar._core, pose.positions, pose.forward, pose.up, pose.left, search
+    )
 
 
-__all__ = ["Echoes", "simulate", "lobe_members"]
+__all__ = ["Echoes", "lobe_members", "simulate"]

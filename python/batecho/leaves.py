@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -45,18 +46,22 @@ class Leaves:
             raise ValueError(f"radii must be > 0; leaf {i} has radius {r[i]}")
         if (np.abs(c) > MAX_COORDINATE_M).any():
             i = int(np.argwhere(np.abs(c) > MAX_COORDINATE_M)[0, 0])
-            raise ValueError(f"leaf {i} has a centre coordinate beyond {MAX_COORDINATE_M:g} m: {c[i]}")
+            raise ValueError(
+                f"leaf {i} has a centre coordinate beyond {MAX_COORDINATE_M:g} m: {c[i]}"
+            )
         length = norms(nv)
         if not (length > 0).all() or not np.isfinite(length).all():
             i = int(np.argmax(~(length > 0) | ~np.isfinite(length)))
-            raise ValueError(f"leaf {i} has a zero-length normal {nv[i]}; a disk needs an orientation")
+            raise ValueError(
+                f"leaf {i} has a zero-length normal {nv[i]}; a disk needs an orientation"
+            )
         nv = nv / length[:, None]
         self._centers = readonly(c)
         self._normals = readonly(np.ascontiguousarray(nv))
         self._radii = readonly(r)
 
     @classmethod
-    def _trusted(cls, centers: np.ndarray, normals: np.ndarray, radii: np.ndarray) -> "Leaves":
+    def _trusted(cls, centers: np.ndarray, normals: np.ndarray, radii: np.ndarray) -> Leaves:
         """Wrap arrays that are already validated float64 with unit normals (no copy)."""
         obj = cls.__new__(cls)
         obj._centers = readonly(np.ascontiguousarray(centers, dtype=np.float64))
@@ -89,10 +94,12 @@ class Leaves:
     def __repr__(self) -> str:
         lo = self._centers.min(axis=0)
         hi = self._centers.max(axis=0)
-        return (f"Leaves(n={len(self)}, bbox=[{lo.round(3).tolist()}, {hi.round(3).tolist()}] m, "
-                f"radius {self._radii.min():.3g}..{self._radii.max():.3g} m)")
+        return (
+            f"Leaves(n={len(self)}, bbox=[{lo.round(3).tolist()}, {hi.round(3).tolist()}] m, "
+            f"radius {self._radii.min():.3g}..{self._radii.max():.3g} m)"
+        )
 
-    def __getitem__(self, index: Any) -> "Leaves":
+    def __getitem__(self, index: Any) -> Leaves:
         """A subset (integer array, boolean mask or slice)."""
         idx = np.arange(len(self))[index]
         idx = np.atleast_1d(idx)
@@ -100,8 +107,9 @@ class Leaves:
             raise ValueError("selection is empty; Leaves needs at least one leaf")
         return Leaves._trusted(self._centers[idx], self._normals[idx], self._radii[idx])
 
-    def transformed(self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0),
-                    scale: float = 1.0) -> "Leaves":
+    def transformed(
+        self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0), scale: float = 1.0
+    ) -> Leaves:
         """Leaves moved rigidly: ``x -> scale * R x + t`` (normals rotate, radii scale)."""
         R = np.eye(3) if rotation is None else real_array(rotation, "rotation")
         if R.shape != (3, 3):
@@ -118,7 +126,7 @@ class Leaves:
         return Leaves._trusted(c, nv, self._radii * s)
 
     @staticmethod
-    def concatenate(parts: Iterable["Leaves"]) -> "Leaves":
+    def concatenate(parts: Iterable[Leaves]) -> Leaves:
         """All leaves of ``parts``, in order."""
         parts = list(parts)
         if not parts:
@@ -143,4 +151,4 @@ def as_leaves(obj: Any) -> Leaves:
     raise TypeError(f"expected Leaves (or an object with .leaves), got {type(obj).__name__}")
 
 
-__all__: Sequence[str] = ["Leaves", "as_leaves", "MAX_COORDINATE_M"]
+__all__: Sequence[str] = ["MAX_COORDINATE_M", "Leaves", "as_leaves"]

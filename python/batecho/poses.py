@@ -24,7 +24,7 @@ class Poses:
     Azimuth is positive toward ``left = up x forward`` and elevation positive toward ``up``.
     """
 
-    __slots__ = ("_positions", "_forward", "_up", "_left")
+    __slots__ = ("_forward", "_left", "_positions", "_up")
 
     def __init__(self, positions: Any, forward: Any, up: Any = (0.0, 0.0, 1.0)):
         pos = vectors(positions, "positions")
@@ -45,8 +45,10 @@ class Poses:
         bad = ~(nu > 1e-9 * norms(u))
         if bad.any():
             i = int(np.argmax(bad))
-            raise ValueError(f"pose {i}: up vector {u[i]} is parallel to forward {f[i]} (or zero); "
-                             "pass an up vector that is not along the beam axis")
+            raise ValueError(
+                f"pose {i}: up vector {u[i]} is parallel to forward {f[i]} (or zero); "
+                "pass an up vector that is not along the beam axis"
+            )
         uu = uo / nu[:, None]
         self._positions = readonly(pos)
         self._forward = readonly(np.ascontiguousarray(d))
@@ -54,8 +56,9 @@ class Poses:
         self._left = readonly(np.ascontiguousarray(crosses(uu, d)))
 
     @classmethod
-    def _from_frames(cls, positions: np.ndarray, forward: np.ndarray, up: np.ndarray,
-                     left: np.ndarray) -> "Poses":
+    def _from_frames(
+        cls, positions: np.ndarray, forward: np.ndarray, up: np.ndarray, left: np.ndarray
+    ) -> Poses:
         obj = cls.__new__(cls)
         obj._positions = readonly(np.ascontiguousarray(positions, dtype=np.float64))
         obj._forward = readonly(np.ascontiguousarray(forward, dtype=np.float64))
@@ -64,7 +67,7 @@ class Poses:
         return obj
 
     @classmethod
-    def from_rotations(cls, positions: Any, rotations: Any) -> "Poses":
+    def from_rotations(cls, positions: Any, rotations: Any) -> Poses:
         """Poses from body rotation matrices (p, 3, 3) whose columns are (forward, left, up)."""
         pos = vectors(positions, "positions")
         R = np.asarray(rotations, dtype=np.float64)
@@ -102,12 +105,13 @@ class Poses:
     def __len__(self) -> int:
         return self._positions.shape[0]
 
-    def __getitem__(self, index: Any) -> "Poses":
+    def __getitem__(self, index: Any) -> Poses:
         idx = np.atleast_1d(np.arange(len(self))[index])
         if idx.size == 0:
             raise ValueError("selection is empty; Poses needs at least one pose")
-        return Poses._from_frames(self._positions[idx], self._forward[idx], self._up[idx],
-                                  self._left[idx])
+        return Poses._from_frames(
+            self._positions[idx], self._forward[idx], self._up[idx], self._left[idx]
+        )
 
     def __iter__(self):
         for i in range(len(self)):
@@ -117,13 +121,17 @@ class Poses:
         return f"Poses(p={len(self)})"
 
     @staticmethod
-    def concatenate(parts: "list[Poses]") -> "Poses":
+    def concatenate(parts: list[Poses]) -> Poses:
         if not parts:
             raise ValueError("concatenate needs at least one Poses")
-        return Poses._from_frames(*(np.concatenate([getattr(p, a) for p in parts])
-                                    for a in ("positions", "forward", "up", "left")))
+        return Poses._from_frames(
+            *(
+                np.concatenate([getattr(p, a) for p in parts])
+                for a in ("positions", "forward", "up", "left")
+            )
+        )
 
-    def transformed(self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0)) -> "Poses":
+    def transformed(self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0)) -> Poses:
         """Poses moved rigidly: ``x -> R x + t``; the frames rotate with them."""
         R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
         t = vectors(translation, "translation")[0]

@@ -14,7 +14,7 @@ class Scene:
     ``Scene(leaves)`` or ``Scene.from_arrays(centers, normals, radii)``.
     """
 
-    __slots__ = ("_leaves", "_core")
+    __slots__ = ("_core", "_leaves")
 
     def __init__(self, leaves: Any):
         self._leaves = as_leaves(leaves)
@@ -22,7 +22,7 @@ class Scene:
         self._core = _core.Scene(lv.centers, lv.normals, lv.radii)
 
     @classmethod
-    def from_arrays(cls, centers: Any, normals: Any, radii: Any) -> "Scene":
+    def from_arrays(cls, centers: Any, normals: Any, radii: Any) -> Scene:
         return cls(Leaves(centers, normals, radii))
 
     @property

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Optional, Tuple, Union
+from typing import Any
 
 import numpy as np
 
@@ -41,10 +41,10 @@ class Beam:
     ``center_deg = (az0, el0)`` moves its centre, ``amplitude`` is A1.
     """
 
-    beamwidth_deg: Optional[float] = None
-    sigma_deg: Union[None, float, Tuple[float, float]] = None
+    beamwidth_deg: float | None = None
+    sigma_deg: float | tuple[float, float] | None = None
     rotation_deg: float = 0.0
-    center_deg: Tuple[float, float] = (0.0, 0.0)
+    center_deg: tuple[float, float] = (0.0, 0.0)
     amplitude: float = 1.0
 
     def __post_init__(self):
@@ -59,15 +59,19 @@ class Beam:
         else:
             s = np.atleast_1d(np.asarray(self.sigma_deg, dtype=np.float64))
             if s.shape not in ((1,), (2,)) or not np.all(np.isfinite(s)) or np.any(s <= 0):
-                raise ValueError(f"sigma_deg must be one or two finite values > 0, got {self.sigma_deg}")
+                raise ValueError(
+                    f"sigma_deg must be one or two finite values > 0, got {self.sigma_deg}"
+                )
         finite_scalar(self.rotation_deg, "rotation_deg")
         az0, el0 = (finite_scalar(v, "center_deg") for v in self.center_deg)
         if abs(az0) > 180 or abs(el0) > 90:
-            raise ValueError(f"center_deg must have |az| <= 180 and |el| <= 90, got {self.center_deg}")
+            raise ValueError(
+                f"center_deg must have |az| <= 180 and |el| <= 90, got {self.center_deg}"
+            )
         positive_scalar(self.amplitude, "amplitude")
 
     @property
-    def sigmas_rad(self) -> Tuple[float, float]:
+    def sigmas_rad(self) -> tuple[float, float]:
         """(sigma_x, sigma_y) in radians: widths along azimuth and elevation before rotation."""
         if self.beamwidth_deg is not None:
             s = sigma_from_beamwidth_deg(self.beamwidth_deg)
@@ -79,8 +83,14 @@ class Beam:
 
     def _core_tuple(self):
         sx, sy = self.sigmas_rad
-        return (float(self.amplitude), sx, sy, math.radians(self.rotation_deg),
-                math.radians(self.center_deg[0]), math.radians(self.center_deg[1]))
+        return (
+            float(self.amplitude),
+            sx,
+            sy,
+            math.radians(self.rotation_deg),
+            math.radians(self.center_deg[0]),
+            math.radians(self.center_deg[1]),
+        )
 
     def gain(self, az_rad, el_rad):
         """One-way gain at azimuth/elevation (radians), NumPy."""
@@ -129,17 +139,17 @@ class Sonar:
     refused (the leaf models do not hold in the Rayleigh regime).
     """
 
-    beamwidth_deg: Optional[float] = None
-    beam: Optional[Beam] = None
-    receiver: Optional[Beam] = None
+    beamwidth_deg: float | None = None
+    beam: Beam | None = None
+    receiver: Beam | None = None
     fs: float = 400e3
     n_samples: int = 24_000
-    band_hz: Tuple[float, float] = (60e3, 80e3)
+    band_hz: tuple[float, float] = (60e3, 80e3)
     sound_speed: float = 340.0
     lobe: str = "detectable"
     threshold_db: float = 20.0
-    cone_half_angle_deg: Optional[float] = None
-    max_range_m: Optional[float] = None
+    cone_half_angle_deg: float | None = None
+    max_range_m: float | None = None
     r0_m: float = 0.1
     p0_pa: float = 2.0
     p_ref_pa: float = 20e-6
@@ -147,7 +157,7 @@ class Sonar:
     spreading: bool = True
     gain: float = 0.2
     window: str = "hann"
-    absorption: Optional[Atmosphere] = None
+    absorption: Atmosphere | None = None
     min_range_m: float = 0.01
     too_close: str = "raise"
     min_ka: float = 0.5
@@ -179,7 +189,9 @@ class Sonar:
         f_lo, f_hi = (finite_scalar(v, "band_hz") for v in self.band_hz)
         fs = positive_scalar(self.fs, "fs")
         if f_hi > fs / 2:
-            raise ValueError(f"band upper edge {f_hi} Hz is above the Nyquist frequency fs/2 = {fs / 2} Hz")
+            raise ValueError(
+                f"band upper edge {f_hi} Hz is above the Nyquist frequency fs/2 = {fs / 2} Hz"
+            )
         cone = None
         if self.lobe == "cone":
             if self.cone_half_angle_deg is None:
@@ -195,22 +207,36 @@ class Sonar:
         core = _core.Sonar(
             self.beam._core_tuple(),
             None if self.receiver is None else self.receiver._core_tuple(),
-            self.lobe, float(self.threshold_db), float(self.r0_m), float(self.p0_pa),
-            float(self.p_ref_pa), cone,
+            self.lobe,
+            float(self.threshold_db),
+            float(self.r0_m),
+            float(self.p0_pa),
+            float(self.p_ref_pa),
+            cone,
             None if self.max_range_m is None else float(self.max_range_m),
-            fs, int(self.n_samples), f_lo, f_hi, float(self.sound_speed), self.leaf_model,
-            bool(self.spreading), float(self.gain), self.window, atm, float(self.min_range_m),
-            self.too_close, float(self.min_ka),
+            fs,
+            int(self.n_samples),
+            f_lo,
+            f_hi,
+            float(self.sound_speed),
+            self.leaf_model,
+            bool(self.spreading),
+            float(self.gain),
+            self.window,
+            atm,
+            float(self.min_range_m),
+            self.too_close,
+            float(self.min_ka),
         )
         object.__setattr__(self, "_core", core)
 
     @classmethod
-    def horseshoe_bat(cls, f_khz: float = 70.0, **kwargs) -> "Sonar":
+    def horseshoe_bat(cls, f_khz: float = 70.0, **kwargs) -> Sonar:
         """A sonar whose beamwidth is the horseshoe-bat fit ``BW(f)`` at ``f_khz`` (one value for
         the whole band, as the authors did)."""
         return cls(beamwidth_deg=horseshoe_bat_beamwidth_deg(f_khz), **kwargs)
 
-    def replace(self, **changes) -> "Sonar":
+    def replace(self, **changes) -> Sonar:
         """A copy with some parameters changed."""
         if "beamwidth_deg" in changes and "beam" not in changes:
             changes["beam"] = None
@@ -218,7 +244,7 @@ class Sonar:
 
     # Derived quantities -------------------------------------------------------------------
     @property
-    def bins(self) -> Tuple[int, int]:
+    def bins(self) -> tuple[int, int]:
         """(k0, k1): first and last band bin (inclusive) of the length-``n_samples`` rFFT."""
         return self._core.bins
 
@@ -259,5 +285,11 @@ class Sonar:
         return self._core.max_reach
 
 
-__all__ = ["Sonar", "Beam", "Atmosphere", "horseshoe_bat_beamwidth_deg", "sigma_from_beamwidth_deg",
-           "DEFAULT_BEAMWIDTH_DEG"]
+__all__ = [
+    "DEFAULT_BEAMWIDTH_DEG",
+    "Atmosphere",
+    "Beam",
+    "Sonar",
+    "horseshoe_bat_beamwidth_deg",
+    "sigma_from_beamwidth_deg",
+]

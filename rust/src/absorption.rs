@@ -13,7 +13,11 @@ pub struct Atmosphere {
 
 impl Default for Atmosphere {
     fn default() -> Self {
-        Atmosphere { temperature_c: 20.0, relative_humidity: 50.0, pressure_pa: 101_325.0 }
+        Atmosphere {
+            temperature_c: 20.0,
+            relative_humidity: 50.0,
+            pressure_pa: 101_325.0,
+        }
     }
 }
 
@@ -21,11 +25,15 @@ impl Atmosphere {
     pub fn validate(&self) -> Result<()> {
         let t = self.temperature_c;
         if !(t.is_finite() && (-100.0..=100.0).contains(&t)) {
-            return invalid(format!("atmosphere temperature must be in [-100, 100] degC, got {t}"));
+            return invalid(format!(
+                "atmosphere temperature must be in [-100, 100] degC, got {t}"
+            ));
         }
         let h = self.relative_humidity;
         if !(h.is_finite() && (0.0..=100.0).contains(&h)) {
-            return invalid(format!("atmosphere relative humidity must be in [0, 100] %, got {h}"));
+            return invalid(format!(
+                "atmosphere relative humidity must be in [0, 100] %, got {h}"
+            ));
         }
         let p = self.pressure_pa;
         if !(p.is_finite() && p > 0.0) {
@@ -45,7 +53,9 @@ impl Atmosphere {
         let psat = 10f64.powf(c);
         let h = self.relative_humidity * psat / pa;
         let fro = pa * (24.0 + 4.04e4 * h * (0.02 + h) / (0.391 + h));
-        let frn = pa * (t / t0).powf(-0.5) * (9.0 + 280.0 * h * (-4.170 * ((t / t0).powf(-1.0 / 3.0) - 1.0)).exp());
+        let frn = pa
+            * (t / t0).powf(-0.5)
+            * (9.0 + 280.0 * h * (-4.170 * ((t / t0).powf(-1.0 / 3.0) - 1.0)).exp());
         let f2 = f * f;
         8.686
             * f2

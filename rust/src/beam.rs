@@ -31,8 +31,19 @@ pub struct GaussianBeam {
 impl GaussianBeam {
     /// A beam from its widths (radians), the rotation `theta` of the ellipse (radians), the
     /// beam centre (radians) and the peak amplitude `A1`.
-    pub fn new(amplitude: f64, sigma_x: f64, sigma_y: f64, rotation: f64, az0: f64, el0: f64) -> Result<Self> {
-        for (name, v) in [("amplitude", amplitude), ("sigma_x", sigma_x), ("sigma_y", sigma_y)] {
+    pub fn new(
+        amplitude: f64,
+        sigma_x: f64,
+        sigma_y: f64,
+        rotation: f64,
+        az0: f64,
+        el0: f64,
+    ) -> Result<Self> {
+        for (name, v) in [
+            ("amplitude", amplitude),
+            ("sigma_x", sigma_x),
+            ("sigma_y", sigma_y),
+        ] {
             if !(v.is_finite() && v > 0.0) {
                 return invalid(format!("beam {name} must be finite and > 0, got {v}"));
             }
@@ -50,13 +61,26 @@ impl GaussianBeam {
         let a = ct * ct / (2.0 * sigma_x * sigma_x) + st * st / (2.0 * sigma_y * sigma_y);
         let b = -s2t / (4.0 * sigma_x * sigma_x) + s2t / (4.0 * sigma_y * sigma_y);
         let c = st * st / (2.0 * sigma_x * sigma_x) + ct * ct / (2.0 * sigma_y * sigma_y);
-        Ok(GaussianBeam { amplitude, sigma_x, sigma_y, rotation, az0, el0, a, b, c })
+        Ok(GaussianBeam {
+            amplitude,
+            sigma_x,
+            sigma_y,
+            rotation,
+            az0,
+            el0,
+            a,
+            b,
+            c,
+        })
     }
 
     /// A circular beam of the given full -3 dB beamwidth (radians), centred on the axis.
     pub fn circular(beamwidth: f64) -> Result<Self> {
         if !(beamwidth.is_finite() && beamwidth > 0.0 && beamwidth < PI) {
-            return invalid(format!("beamwidth must be in (0, 180) degrees, got {} deg", beamwidth.to_degrees()));
+            return invalid(format!(
+                "beamwidth must be in (0, 180) degrees, got {} deg",
+                beamwidth.to_degrees()
+            ));
         }
         let s = sigma_from_beamwidth(beamwidth);
         GaussianBeam::new(1.0, s, s, 0.0, 0.0, 0.0)

@@ -22,7 +22,10 @@ fn to_py(e: Error) -> PyErr {
 fn rows3(a: &PyReadonlyArray2<'_, f64>, name: &str) -> PyResult<Vec<V3>> {
     let v = a.as_array();
     if v.ncols() != 3 {
-        return Err(PyValueError::new_err(format!("{name} must have shape (n, 3), got {:?}", v.shape())));
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (n, 3), got {:?}",
+            v.shape()
+        )));
     }
     Ok(v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
 }
@@ -47,7 +50,9 @@ impl PyScene {
         let n = rows3(&normals, "normals")?;
         let r: Vec<f64> = radii.as_array().iter().copied().collect();
         let scene = py.detach(move || Scene::new(c, n, r)).map_err(to_py)?;
-        Ok(PyScene { inner: Arc::new(scene) })
+        Ok(PyScene {
+            inner: Arc::new(scene),
+        })
     }
 
     #[getter]
@@ -114,26 +119,48 @@ impl PySonar {
     ) -> PyResult<Self> {
         let err = |m: String| PyValueError::new_err(m);
         let lobe = match lobe {
-            "detectable" => LobeRule::Detectable { threshold_db, r0, p0, p_ref },
-            "cone" => LobeRule::Cone {
-                half_angle: cone_half_angle.ok_or_else(|| err("lobe 'cone' needs cone_half_angle".into()))?,
+            "detectable" => LobeRule::Detectable {
+                threshold_db,
+                r0,
+                p0,
+                p_ref,
             },
-            other => return Err(err(format!("lobe must be 'detectable' or 'cone', got {other:?}"))),
+            "cone" => LobeRule::Cone {
+                half_angle: cone_half_angle
+                    .ok_or_else(|| err("lobe 'cone' needs cone_half_angle".into()))?,
+            },
+            other => {
+                return Err(err(format!(
+                    "lobe must be 'detectable' or 'cone', got {other:?}"
+                )))
+            }
         };
         let leaf_model = match leaf_model {
             "paper" => LeafModel::Paper,
             "physical_optics" => LeafModel::PhysicalOptics,
-            other => return Err(err(format!("leaf_model must be 'paper' or 'physical_optics', got {other:?}"))),
+            other => {
+                return Err(err(format!(
+                    "leaf_model must be 'paper' or 'physical_optics', got {other:?}"
+                )))
+            }
         };
         let window = match window {
             "hann" => Window::Hann,
             "rect" => Window::Rect,
-            other => return Err(err(format!("window must be 'hann' or 'rect', got {other:?}"))),
+            other => {
+                return Err(err(format!(
+                    "window must be 'hann' or 'rect', got {other:?}"
+                )))
+            }
         };
         let too_close = match too_close {
             "raise" => TooClose::Error,
             "skip" => TooClose::Skip,
-            other => return Err(err(format!("too_close must be 'raise' or 'skip', got {other:?}"))),
+            other => {
+                return Err(err(format!(
+                    "too_close must be 'raise' or 'skip', got {other:?}"
+                )))
+            }
         };
         let params = SonarParams {
             emitter: beam_from(emitter).map_err(to_py)?,
@@ -149,12 +176,18 @@ impl PySonar {
             spreading,
             gain,
             window,
-            atmosphere: atmosphere.map(|(t, h, p)| Atmosphere { temperature_c: t, relative_humidity: h, pressure_pa: p }),
+            atmosphere: atmosphere.map(|(t, h, p)| Atmosphere {
+                temperature_c: t,
+                relative_humidity: h,
+                pressure_pa: p,
+            }),
             min_range,
             too_close,
             min_ka,
         };
-        Ok(PySonar { inner: Arc::new(Sonar::new(params).map_err(to_py)?) })
+        Ok(PySonar {
+            inner: Arc::new(Sonar::new(params).map_err(to_py)?),
+        })
     }
 
     /// Band-bin frequencies (Hz).
@@ -185,7 +218,12 @@ impl PySonar {
     #[getter]
     fn absorption_db_per_m<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
         self.inner.params.atmosphere.map(|a| {
-            self.inner.freqs.iter().map(|&f| a.alpha_db_per_m(f)).collect::<Vec<_>>().into_pyarray(py)
+            self.inner
+                .freqs
+                .iter()
+                .map(|&f| a.alpha_db_per_m(f))
+                .collect::<Vec<_>>()
+                .into_pyarray(py)
         })
     }
 }
@@ -204,7 +242,10 @@ fn poses_from(
         return Err(PyValueError::new_err("pose arrays differ in length"));
     }
     (0..p.len())
-        .map(|i| Pose::from_frame(p[i], d[i], u[i], l[i]).map_err(|e| PyValueError::new_err(format!("pose {i}: {e}"))))
+        .map(|i| {
+            Pose::from_frame(p[i], d[i], u[i], l[i])
+                .map_err(|e| PyValueError::new_err(format!("pose {i}: {e}")))
+        })
         .collect()
 }
 
@@ -212,11 +253,17 @@ fn search_from(s: &str) -> PyResult<Search> {
     match s {
         "bvh" => Ok(Search::Bvh),
         "brute_force" => Ok(Search::BruteForce),
-        other => Err(PyValueError::new_err(format!("search must be 'bvh' or 'brute_force', got {other:?}"))),
+        other => Err(PyValueError::new_err(format!(
+            "search must be 'bvh' or 'brute_force', got {other:?}"
+        ))),
     }
 }
 
-type SimOut<'py> = (Bound<'py, PyArray2<Complex64>>, Option<Bound<'py, PyArray2<f64>>>, Bound<'py, PyArray1<u64>>);
+type SimOut<'py> = (
+    Bound<'py, PyArray2<Complex64>>,
+    Option<Bound<'py, PyArray2<f64>>>,
+    Bound<'py, PyArray1<u64>>,
+);
 
 /// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`.
 #[pyfunction]
@@ -236,15 +283,27 @@ fn simulate_exact<'py>(
     let poses = poses_from(&positions, &forward, &up, &left)?;
     let search = search_from(search)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
-    let out = py.detach(move || simulate::simulate(&sc, &so, &poses, impulse, search)).map_err(to_py)?;
+    let out = py
+        .detach(move || simulate::simulate(&sc, &so, &poses, impulse, search))
+        .map_err(to_py)?;
     let p = out.n_leaves.len();
     let m = out.n_bins;
-    let spec: Vec<Complex64> =
-        out.spectrum_re.iter().zip(&out.spectrum_im).map(|(&re, &im)| Complex64::new(re, im)).collect();
-    let spec = Array2::from_shape_vec((p, m), spec).expect("p * M values").into_pyarray(py);
+    let spec: Vec<Complex64> = out
+        .spectrum_re
+        .iter()
+        .zip(&out.spectrum_im)
+        .map(|(&re, &im)| Complex64::new(re, im))
+        .collect();
+    let spec = Array2::from_shape_vec((p, m), spec)
+        .expect("p * M values")
+        .into_pyarray(py);
     let imp = if impulse {
         let n = sonar.inner.params.n_samples;
-        Some(Array2::from_shape_vec((p, n), out.impulse).expect("p * n values").into_pyarray(py))
+        Some(
+            Array2::from_shape_vec((p, n), out.impulse)
+                .expect("p * n values")
+                .into_pyarray(py),
+        )
     } else {
         None
     };
@@ -267,13 +326,117 @@ fn lobe_members<'py>(
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let poses = poses_from(&position, &forward, &up, &left)?;
     if poses.len() != 1 {
-        return Err(PyValueError::new_err(format!("lobe_members takes one pose, got {}", poses.len())));
+        return Err(PyValueError::new_err(format!(
+            "lobe_members takes one pose, got {}",
+            poses.len()
+        )));
     }
     let search = search_from(search)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let pose = poses[0];
-    let mem = py.detach(move || lobe::members(&sc, &so, &pose, 0, search)).map_err(to_py)?;
-    Ok(mem.iter().map(|m| m.index as i64).collect::<Vec<_>>().into_pyarray(py))
+    let mem = py
+        .detach(move || lobe::members(&sc, &so, &pose, 0, search))
+        .map_err(to_py)?;
+    Ok(mem
+        .iter()
+        .map(|m| m.index as i64)
+        .collect::<Vec<_>>()
+        .into_pyarray(py))
+}
+
+/// Load an OBJ mesh (see `batecho.load_obj`): `(leaf_centers (n,3), leaf_normals (n,3),
+/// leaf_radii (n,), leaf_areas (n,), leaf_groups (n,) int64, bark_vertices (v,3),
+/// bark_faces (f,3) int64, bark_face_groups (f,) int64, group_names, n_degenerate, warnings)`.
+#[pyfunction]
+#[pyo3(signature = (path, leaf_patterns=None, per="patch", up="z", scale=1.0, transform=None))]
+fn load_obj<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    leaf_patterns: Option<Vec<String>>,
+    per: &str,
+    up: &str,
+    scale: f64,
+    transform: Option<PyReadonlyArray2<'py, f64>>,
+) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+    use crate::obj::{ObjOptions, Per, Up};
+    let err = |m: String| PyValueError::new_err(m);
+    let per = match per {
+        "patch" => Per::Patch,
+        "face" => Per::Face,
+        other => return Err(err(format!("per must be 'patch' or 'face', got {other:?}"))),
+    };
+    let up = match up {
+        "z" | "Z" => Up::Z,
+        "y" | "Y" => Up::Y,
+        other => return Err(err(format!("up must be 'z' or 'y', got {other:?}"))),
+    };
+    let transform = match transform {
+        None => None,
+        Some(t) => {
+            let a = t.as_array();
+            if a.shape() != [4, 4] {
+                return Err(err(format!(
+                    "transform must have shape (4, 4), got {:?}",
+                    a.shape()
+                )));
+            }
+            let mut m = [[0.0; 4]; 4];
+            for (i, row) in m.iter_mut().enumerate() {
+                for (j, x) in row.iter_mut().enumerate() {
+                    *x = a[[i, j]];
+                }
+            }
+            Some(m)
+        }
+    };
+    let mut opts = ObjOptions {
+        per,
+        up,
+        scale,
+        transform,
+        ..ObjOptions::default()
+    };
+    if let Some(p) = leaf_patterns {
+        opts.leaf_patterns = p;
+    }
+    let mesh = py
+        .detach(move || crate::obj::load_obj(&path, &opts))
+        .map_err(to_py)?;
+    let rows = |v: Vec<V3>| -> PyResult<Bound<'py, PyAny>> {
+        let n = v.len();
+        let flat: Vec<f64> = v.into_iter().flatten().collect();
+        let a = Array2::from_shape_vec((n, 3), flat).map_err(|e| err(e.to_string()))?;
+        Ok(a.into_pyarray(py).into_any())
+    };
+    let ints = |v: Vec<u32>| {
+        v.into_iter()
+            .map(i64::from)
+            .collect::<Vec<i64>>()
+            .into_pyarray(py)
+            .into_any()
+    };
+    let n_faces = mesh.bark_faces.len();
+    let faces: Vec<i64> = mesh
+        .bark_faces
+        .into_iter()
+        .flatten()
+        .map(i64::from)
+        .collect();
+    let faces = Array2::from_shape_vec((n_faces, 3), faces).map_err(|e| err(e.to_string()))?;
+    let items: Vec<Bound<'py, PyAny>> = vec![
+        rows(mesh.leaf_centers)?,
+        rows(mesh.leaf_normals)?,
+        mesh.leaf_radii.into_pyarray(py).into_any(),
+        mesh.leaf_areas.into_pyarray(py).into_any(),
+        ints(mesh.leaf_groups),
+        rows(mesh.bark_vertices)?,
+        faces.into_pyarray(py).into_any(),
+        ints(mesh.bark_face_groups),
+        mesh.group_names.into_pyobject(py)?.into_any(),
+        mesh.n_degenerate_faces.into_pyobject(py)?.into_any(),
+        mesh.warnings.into_pyobject(py)?.into_any(),
+    ];
+    pyo3::types::PyTuple::new(py, items)
 }
 
 #[pymodule]
@@ -282,6 +445,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySonar>()?;
     m.add_function(wrap_pyfunction!(simulate_exact, m)?)?;
     m.add_function(wrap_pyfunction!(lobe_members, m)?)?;
+    m.add_function(wrap_pyfunction!(load_obj, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -9,7 +9,12 @@ pub enum Error {
     /// The caller gave a value outside its domain (NaN, negative radius, band above Nyquist...).
     InvalidInput(String),
     /// A leaf is closer to a pulse position than the sonar's `min_range`.
-    TooClose { pose: usize, leaf: usize, range: f64, min_range: f64 },
+    TooClose {
+        pose: usize,
+        leaf: usize,
+        range: f64,
+        min_range: f64,
+    },
     /// An OBJ/MTL file could not be read or understood.
     Obj(String),
 }

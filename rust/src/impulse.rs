@@ -6,11 +6,16 @@ use realfft::{ComplexToReal, RealFftPlanner};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
-fn plan(n: usize) -> Arc<dyn ComplexToReal<f64>> {
-    static PLANS: OnceLock<Mutex<HashMap<usize, Arc<dyn ComplexToReal<f64>>>>> = OnceLock::new();
+type Plan = Arc<dyn ComplexToReal<f64>>;
+
+fn plan(n: usize) -> Plan {
+    static PLANS: OnceLock<Mutex<HashMap<usize, Plan>>> = OnceLock::new();
     let plans = PLANS.get_or_init(|| Mutex::new(HashMap::new()));
     let mut guard = plans.lock().unwrap_or_else(|e| e.into_inner());
-    guard.entry(n).or_insert_with(|| RealFftPlanner::<f64>::new().plan_fft_inverse(n)).clone()
+    guard
+        .entry(n)
+        .or_insert_with(|| RealFftPlanner::<f64>::new().plan_fft_inverse(n))
+        .clone()
 }
 
 /// Write `2 irfft(Y, n)` into `out` (length n), where `Y` is zero except on bins

@@ -4,8 +4,12 @@
 //! `python` feature, so `cargo test` and `cargo bench` run without Python.
 //! Units: metres, seconds, hertz, radians.
 
+// `!(x <= y)` is used on purpose throughout: it is true for NaN, so NaN never passes a check.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod absorption;
 pub mod beam;
+pub mod erf_table;
 pub mod error;
 pub mod impulse;
 pub mod kernel;
@@ -18,6 +22,7 @@ pub mod scene;
 pub mod simulate;
 pub mod sonar;
 pub mod spectrum;
+pub mod vmath;
 
 #[cfg(feature = "python")]
 mod bindings;

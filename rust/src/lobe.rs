@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::pose::{cross, dot, norm, sub, Pose, V3};
 use crate::scene::Scene;
 use crate::sonar::{LobeRule, Sonar, TooClose};
+use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// A leaf seen from a pose: range (m), unit direction, azimuth and elevation (rad), two-way gain.
@@ -57,7 +58,13 @@ pub fn classify(sonar: &Sonar, pose: &Pose, center: V3) -> Decision {
             return Decision::Out;
         }
     }
-    Decision::In(LeafView { range: r, dir: e, az, el, gain })
+    Decision::In(LeafView {
+        range: r,
+        dir: e,
+        az,
+        el,
+        gain,
+    })
 }
 
 /// Smallest |wrap(az - az0)| interval pieces for `az` in `[azc - h, azc + h]`: returns up to
@@ -87,34 +94,54 @@ fn daz_intervals(azc: f64, h: f64, az0: f64) -> ([(f64, f64); 2], usize) {
 /// rounding in the bound itself can never prune a counting leaf.
 const SLACK: f64 = 1e-9;
 
-/// Conservative test: may any point of the box `[lo, hi]` count for this pose?
-pub fn box_may_count(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> bool {
+/// What the BVH may conclude about a node's box.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoxTest {
+    /// No point of the box can count.
+    Outside,
+    /// Some points may count: descend.
+    Partial,
+    /// Every point of the box passes the lobe and range tests (with margin): take all leaves
+    /// as candidates without testing the nodes below. (Each still gets the exact test.)
+    Inside,
+}
+
+/// Conservative test of the box `[lo, hi]` against the lobe of this pose.
+pub fn test_box(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> BoxTest {
     let p = pose.position;
-    let mut d2 = 0.0;
+    let (mut d2, mut f2) = (0.0, 0.0);
     for i in 0..3 {
-        let t = if p[i] < lo[i] {
+        let near = if p[i] < lo[i] {
             lo[i] - p[i]
         } else if p[i] > hi[i] {
             p[i] - hi[i]
         } else {
             0.0
         };
-        d2 += t * t;
+        let far = (p[i] - lo[i]).abs().max((hi[i] - p[i]).abs());
+        d2 += near * near;
+        f2 += far * far;
     }
     let rmin = d2.sqrt() * (1.0 - SLACK);
+    let rmax = f2.sqrt() * (1.0 + SLACK);
     if rmin <= sonar.params.min_range * (1.0 + SLACK) {
-        return true; // may hold a too-close leaf, which must be reported
+        return BoxTest::Partial; // may hold a too-close leaf, which must be reported
     }
     if rmin > sonar.range_limit {
-        return false;
+        return BoxTest::Outside;
     }
+    let in_range = rmax < sonar.range_limit;
     // Angular extent: the bounding sphere of the box, seen from the pose.
-    let c = [(lo[0] + hi[0]) * 0.5, (lo[1] + hi[1]) * 0.5, (lo[2] + hi[2]) * 0.5];
+    let c = [
+        (lo[0] + hi[0]) * 0.5,
+        (lo[1] + hi[1]) * 0.5,
+        (lo[2] + hi[2]) * 0.5,
+    ];
     let rad = norm(sub(hi, lo)) * 0.5 * (1.0 + SLACK);
     let v = sub(c, p);
     let dist = norm(v);
     if !(dist > rad) {
-        return true;
+        return BoxTest::Partial;
     }
     let delta = (rad / dist).asin() + SLACK;
     let vd = dot(v, pose.forward);
@@ -123,7 +150,13 @@ pub fn box_may_count(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> bool {
     match sonar.params.lobe {
         LobeRule::Cone { half_angle } => {
             let gamma_c = norm(cross(v, pose.forward)).atan2(vd);
-            gamma_c - delta <= half_angle + SLACK
+            if gamma_c - delta > half_angle + SLACK {
+                BoxTest::Outside
+            } else if in_range && gamma_c + delta < half_angle - SLACK {
+                BoxTest::Inside
+            } else {
+                BoxTest::Partial
+            }
         }
         LobeRule::Detectable { .. } => {
             let azc = vl.atan2(vd);
@@ -134,21 +167,38 @@ pub fn box_may_count(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> bool {
             } else {
                 (delta.sin() / elc.cos()).min(1.0).asin() + SLACK
             };
-            let gmax_one = |b: &crate::beam::GaussianBeam| -> f64 {
+            // Largest and smallest one-way gain over the cap's (az, el) rectangle.
+            let gain_range = |b: &crate::beam::GaussianBeam| -> (f64, f64) {
                 let (ivs, n) = daz_intervals(azc, h, b.az0);
-                let qmin = ivs[..n]
-                    .iter()
-                    .map(|&(a0, a1)| b.quad_min_over_rect(a0, a1, e_lo - b.el0, e_hi - b.el0))
-                    .fold(f64::INFINITY, f64::min);
-                b.amplitude * (-qmin).exp()
+                let (mut qmin, mut qmax) = (f64::INFINITY, 0.0f64);
+                for &(a0, a1) in &ivs[..n] {
+                    let (y0, y1) = (e_lo - b.el0, e_hi - b.el0);
+                    qmin = qmin.min(b.quad_min_over_rect(a0, a1, y0, y1));
+                    // a convex quadratic is largest at a corner
+                    for (x, y) in [(a0, y0), (a0, y1), (a1, y0), (a1, y1)] {
+                        qmax = qmax.max(b.quad(x, y));
+                    }
+                }
+                (b.amplitude * (-qmax).exp(), b.amplitude * (-qmin).exp())
             };
-            let gtx = gmax_one(&sonar.params.emitter);
-            let gmax = match &sonar.params.receiver {
-                None => gtx * gtx,
-                Some(rx) => gtx * gmax_one(rx),
+            let (gtx_lo, gtx_hi) = gain_range(&sonar.params.emitter);
+            let (g_lo, g_hi) = match &sonar.params.receiver {
+                None => (gtx_lo * gtx_lo, gtx_hi * gtx_hi),
+                Some(rx) => {
+                    let (r_lo, r_hi) = gain_range(rx);
+                    (gtx_lo * r_lo, gtx_hi * r_hi)
+                }
             };
-            let reach = (sonar.reach_sq_per_gain * gmax).sqrt() * (1.0 + SLACK);
-            rmin <= reach
+            if rmin > (sonar.reach_sq_per_gain * g_hi).sqrt() * (1.0 + SLACK) {
+                BoxTest::Outside
+            } else if in_range
+                && h < PI
+                && rmax < (sonar.reach_sq_per_gain * g_lo).sqrt() * (1.0 - SLACK)
+            {
+                BoxTest::Inside
+            } else {
+                BoxTest::Partial
+            }
         }
     }
 }
@@ -166,22 +216,27 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
             [a.max.x as f64, a.max.y as f64, a.max.z as f64],
         )
     };
-    let mut stack: Vec<u32> = Vec::with_capacity(64);
-    stack.push(0);
-    while let Some(ni) = stack.pop() {
+    // Each stack entry: node index, and whether an ancestor was entirely inside.
+    let mut stack: Vec<(u32, bool)> = Vec::with_capacity(64);
+    stack.push((0, false));
+    while let Some((ni, inside)) = stack.pop() {
         let node = &bvh.nodes[ni as usize];
-        let (lo, hi) = node_box(ni as usize);
-        if !box_may_count(sonar, pose, lo, hi) {
-            continue;
-        }
+        let inside = inside || {
+            let (lo, hi) = node_box(ni as usize);
+            match test_box(sonar, pose, lo, hi) {
+                BoxTest::Outside => continue,
+                BoxTest::Partial => false,
+                BoxTest::Inside => true,
+            }
+        };
         if node.is_leaf() {
             let first = node.first_index as usize;
             for k in first..first + node.prim_count as usize {
                 visit(bvh.primitive_indices[k]);
             }
         } else {
-            stack.push(node.first_index + 1);
-            stack.push(node.first_index);
+            stack.push((node.first_index + 1, inside));
+            stack.push((node.first_index, inside));
         }
     }
 }
@@ -210,34 +265,73 @@ pub enum Search {
     BruteForce,
 }
 
+/// Candidates per parallel task of the exact test.
+const CLASSIFY_CHUNK: usize = 2048;
+
 /// The counting leaves for one pose, sorted by leaf index. `pose_index` only labels errors.
-pub fn members(scene: &Scene, sonar: &Sonar, pose: &Pose, pose_index: usize, search: Search) -> Result<Vec<Member>> {
-    let mut out: Vec<Member> = Vec::new();
-    let mut too_close: Option<(usize, f64)> = None;
-    let mut take = |i: u32| {
-        let i_us = i as usize;
-        match classify(sonar, pose, scene.centers[i_us]) {
-            Decision::Out => {}
-            Decision::TooClose(r) => {
-                if sonar.params.too_close == TooClose::Error && too_close.is_none_or(|(j, _)| i_us < j) {
-                    too_close = Some((i_us, r));
-                }
-            }
-            Decision::In(v) => out.push(Member {
-                index: i,
-                range: v.range,
-                gain: v.gain,
-                beta: incidence_angle(v.dir, scene.normals[i_us]),
-            }),
+/// The exact test runs on the candidates in parallel chunks (in index order, so the result does
+/// not depend on the number of threads).
+pub fn members(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    pose_index: usize,
+    search: Search,
+) -> Result<Vec<Member>> {
+    let candidates: Vec<u32> = match search {
+        Search::Bvh => {
+            let mut c = Vec::new();
+            bvh_candidates(scene, sonar, pose, |i| c.push(i));
+            c.sort_unstable();
+            c
         }
+        Search::BruteForce => (0..scene.len() as u32).collect(),
     };
-    match search {
-        Search::Bvh => bvh_candidates(scene, sonar, pose, &mut take),
-        Search::BruteForce => (0..scene.len() as u32).for_each(&mut take),
+    // Per chunk: the counting leaves, and the first too-close leaf (index, range).
+    type Part = (Vec<Member>, Option<(usize, f64)>);
+    let classify_chunk = |chunk: &[u32]| -> Part {
+        let mut out = Vec::new();
+        let mut too_close = None;
+        for &i in chunk {
+            let iu = i as usize;
+            match classify(sonar, pose, scene.centers[iu]) {
+                Decision::Out => {}
+                Decision::TooClose(r) => {
+                    if too_close.is_none() {
+                        too_close = Some((iu, r));
+                    }
+                }
+                Decision::In(v) => out.push(Member {
+                    index: i,
+                    range: v.range,
+                    gain: v.gain,
+                    beta: incidence_angle(v.dir, scene.normals[iu]),
+                }),
+            }
+        }
+        (out, too_close)
+    };
+    let parts: Vec<Part> = if candidates.len() <= CLASSIFY_CHUNK {
+        vec![classify_chunk(&candidates)]
+    } else {
+        candidates
+            .par_chunks(CLASSIFY_CHUNK)
+            .map(classify_chunk)
+            .collect()
+    };
+    if sonar.params.too_close == TooClose::Error {
+        if let Some((leaf, range)) = parts.iter().find_map(|p| p.1) {
+            return Err(Error::TooClose {
+                pose: pose_index,
+                leaf,
+                range,
+                min_range: sonar.params.min_range,
+            });
+        }
     }
-    if let Some((leaf, range)) = too_close {
-        return Err(Error::TooClose { pose: pose_index, leaf, range, min_range: sonar.params.min_range });
+    let mut out = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
+    for (m, _) in parts {
+        out.extend(m);
     }
-    out.sort_unstable_by_key(|m| m.index);
     Ok(out)
 }

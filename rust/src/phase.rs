@@ -23,7 +23,10 @@ impl CyclesPerBin {
         let q1 = h / dh;
         let (p, e) = two_prod(q1, dh);
         let rem = ((h - p) - e) + l - q1 * dl;
-        CyclesPerBin { hi: q1, lo: rem / dh }
+        CyclesPerBin {
+            hi: q1,
+            lo: rem / dh,
+        }
     }
 
     /// `k q` modulo 1, in [-0.5, 0.5].
@@ -60,6 +63,11 @@ mod tests {
         let den: u128 = 24_000 * 340;
         let frac = (num % den) as f64 / den as f64; // 0.352941...
         let want = if frac > 0.5 { frac - 1.0 } else { frac };
-        assert!((q.frac_at(k) - want).abs() < 1e-15, "{} vs {}", q.frac_at(k), want);
+        assert!(
+            (q.frac_at(k) - want).abs() < 1e-15,
+            "{} vs {}",
+            q.frac_at(k),
+            want
+        );
     }
 }

@@ -11,7 +11,11 @@ pub fn dot(a: V3, b: V3) -> f64 {
 
 #[inline(always)]
 pub fn cross(a: V3, b: V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 #[inline(always)]
@@ -58,7 +62,12 @@ impl Pose {
             return invalid("pose up vector is parallel to forward (or zero)");
         }
         let u = [uo[0] / nu, uo[1] / nu, uo[2] / nu];
-        Ok(Pose { position, forward: d, up: u, left: cross(u, d) })
+        Ok(Pose {
+            position,
+            forward: d,
+            up: u,
+            left: cross(u, d),
+        })
     }
 
     /// A pose from an already orthonormal frame (as computed by `batecho.Poses`); checks it.
@@ -71,13 +80,21 @@ impl Pose {
         if !unit(forward) || !unit(up) || !unit(left) {
             return invalid("pose frame vectors must be unit length");
         }
-        if dot(forward, up).abs() > tol || dot(forward, left).abs() > tol || dot(up, left).abs() > tol {
+        if dot(forward, up).abs() > tol
+            || dot(forward, left).abs() > tol
+            || dot(up, left).abs() > tol
+        {
             return invalid("pose frame vectors must be orthogonal");
         }
         let c = cross(up, forward);
         if dot(c, left) < 1.0 - tol {
             return invalid("pose frame must be right-handed with left = up x forward");
         }
-        Ok(Pose { position, forward, up, left })
+        Ok(Pose {
+            position,
+            forward,
+            up,
+            left,
+        })
     }
 }

@@ -2,12 +2,14 @@
 //! once and reused for every pose.
 
 use crate::error::{invalid, Result};
+use crate::leaf_model::{PAPER_BP, PAPER_PP};
 use crate::pose::{dot, V3};
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
 use obvhs::bvh2::Bvh2;
 use obvhs::BvhBuildParams;
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// Coordinates beyond this (m) are refused: the BVH stores f32 boxes.
@@ -17,6 +19,9 @@ pub struct Scene {
     pub centers: Vec<V3>,
     pub normals: Vec<V3>,
     pub radii: Vec<f64>,
+    /// `a^-0.9065` and `a^0.3523` of every radius (the paper model's `c^p = k^p a^p`).
+    pub radius_pow_b: Vec<f64>,
+    pub radius_pow_p: Vec<f64>,
     pub bvh: Bvh2,
     /// Wall time of the BVH build.
     pub build_time: Duration,
@@ -40,7 +45,10 @@ fn point_box(c: V3) -> Aabb {
             f
         }
     };
-    Aabb::new(Vec3A::new(down(c[0]), down(c[1]), down(c[2])), Vec3A::new(up(c[0]), up(c[1]), up(c[2])))
+    Aabb::new(
+        Vec3A::new(down(c[0]), down(c[1]), down(c[2])),
+        Vec3A::new(up(c[0]), up(c[1]), up(c[2])),
+    )
 }
 
 /// Validate leaf arrays: equal lengths, at least one leaf, finite coordinates, unit normals
@@ -66,13 +74,17 @@ pub fn validate_leaves(centers: &[V3], normals: &[V3], radii: &[f64]) -> Result<
             return invalid(format!("leaf {i} has a non-finite center {c:?}"));
         }
         if c.iter().any(|x| x.abs() > MAX_COORDINATE) {
-            return invalid(format!("leaf {i} has a center coordinate beyond {MAX_COORDINATE:e} m: {c:?}"));
+            return invalid(format!(
+                "leaf {i} has a center coordinate beyond {MAX_COORDINATE:e} m: {c:?}"
+            ));
         }
     }
     for (i, nv) in normals.iter().enumerate() {
         let l2 = dot(*nv, *nv);
         if !l2.is_finite() || (l2 - 1.0).abs() > 1e-6 {
-            return invalid(format!("leaf {i} normal {nv:?} is not a finite unit vector"));
+            return invalid(format!(
+                "leaf {i} normal {nv:?} is not a finite unit vector"
+            ));
         }
     }
     for (i, &a) in radii.iter().enumerate() {
@@ -91,7 +103,18 @@ impl Scene {
         let boxes: Vec<Aabb> = centers.iter().map(|&c| point_box(c)).collect();
         let mut core = Duration::default();
         let bvh = build_bvh2(&boxes, BvhBuildParams::fast_build(), &mut core);
-        Ok(Scene { centers, normals, radii, bvh, build_time: start.elapsed() })
+        let build_time = start.elapsed();
+        let radius_pow_b = radii.par_iter().map(|a| a.powf(PAPER_BP)).collect();
+        let radius_pow_p = radii.par_iter().map(|a| a.powf(PAPER_PP)).collect();
+        Ok(Scene {
+            centers,
+            normals,
+            radii,
+            radius_pow_b,
+            radius_pow_p,
+            bvh,
+            build_time,
+        })
     }
 
     pub fn len(&self) -> usize {

@@ -28,7 +28,10 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
         .iter()
         .copied()
         .enumerate()
-        .fold((0, f64::INFINITY), |acc, (i, a)| if a < acc.1 { (i, a) } else { acc });
+        .fold(
+            (0, f64::INFINITY),
+            |acc, (i, a)| if a < acc.1 { (i, a) } else { acc },
+        );
     if k_lo * a < sonar.params.min_ka {
         return invalid(format!(
             "leaf {i} has radius {a:e} m, so k a = {:.4} at the band's lowest frequency {} Hz, below min_ka = {}; \
@@ -41,11 +44,19 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
     Ok(())
 }
 
-pub fn simulate(scene: &Scene, sonar: &Sonar, poses: &[Pose], with_impulse: bool, search: Search) -> Result<Echoes> {
+pub fn simulate(
+    scene: &Scene,
+    sonar: &Sonar,
+    poses: &[Pose],
+    with_impulse: bool,
+    search: Search,
+) -> Result<Echoes> {
     check_leaf_sizes(scene, sonar)?;
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
-    let per_pose: Vec<(Vec<f64>, Vec<f64>, Vec<f64>, u64)> = poses
+    // Per pose: spectrum (re, im), impulse, number of counting leaves.
+    type PoseOut = (Vec<f64>, Vec<f64>, Vec<f64>, u64);
+    let per_pose: Vec<PoseOut> = poses
         .par_iter()
         .enumerate()
         .map(|(i, pose)| {

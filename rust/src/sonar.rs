@@ -4,13 +4,19 @@
 use crate::absorption::Atmosphere;
 use crate::beam::GaussianBeam;
 use crate::error::{invalid, Result};
+use crate::kernel::BandTables;
 use std::f64::consts::PI;
 
 /// Which leaves count (MODEL.md section 3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LobeRule {
     /// The authors' rule: `r <= sqrt(r0^2 p0 G / (10^(T/20) p_ref))`.
-    Detectable { threshold_db: f64, r0: f64, p0: f64, p_ref: f64 },
+    Detectable {
+        threshold_db: f64,
+        r0: f64,
+        p0: f64,
+        p_ref: f64,
+    },
     /// A hard cone: the angle between `e` and the forward axis at most `half_angle` (radians).
     Cone { half_angle: f64 },
 }
@@ -70,7 +76,12 @@ impl SonarParams {
         Ok(SonarParams {
             emitter: GaussianBeam::circular(beamwidth)?,
             receiver: None,
-            lobe: LobeRule::Detectable { threshold_db: 20.0, r0: 0.1, p0: 2.0, p_ref: 20e-6 },
+            lobe: LobeRule::Detectable {
+                threshold_db: 20.0,
+                r0: 0.1,
+                p0: 2.0,
+                p_ref: 20e-6,
+            },
             max_range: None,
             fs: 400e3,
             n_samples: 24_000,
@@ -115,6 +126,8 @@ pub struct Sonar {
     /// Absorption per band bin, in nepers of amplitude per metre of range (two-way, so the
     /// factor is `exp(-atten * r)`); empty when absorption is off.
     pub atten_per_m: Vec<f64>,
+    /// Per-bin tables of the spectrum kernel.
+    pub tables: BandTables,
 }
 
 impl Sonar {
@@ -138,10 +151,16 @@ impl Sonar {
             return invalid(format!("n_samples must be at least 2, got {}", p.n_samples));
         }
         if p.n_samples > (1usize << 31) {
-            return invalid(format!("n_samples must be at most 2^31, got {}", p.n_samples));
+            return invalid(format!(
+                "n_samples must be at most 2^31, got {}",
+                p.n_samples
+            ));
         }
         if !(p.f_lo.is_finite() && p.f_hi.is_finite() && 0.0 < p.f_lo && p.f_lo < p.f_hi) {
-            return invalid(format!("band must satisfy 0 < f_lo < f_hi, got ({}, {}) Hz", p.f_lo, p.f_hi));
+            return invalid(format!(
+                "band must satisfy 0 < f_lo < f_hi, got ({}, {}) Hz",
+                p.f_lo, p.f_hi
+            ));
         }
         let nyquist = p.fs / 2.0;
         if p.f_hi > nyquist {
@@ -168,7 +187,10 @@ impl Sonar {
         let k0 = round_half_up(p.f_lo / df);
         let k1 = round_half_up(p.f_hi / df);
         if k0 < 1.0 {
-            return invalid(format!("band lower edge {} Hz rounds to the DC bin; raise it or n_samples", p.f_lo));
+            return invalid(format!(
+                "band lower edge {} Hz rounds to the DC bin; raise it or n_samples",
+                p.f_lo
+            ));
         }
         if k1 > (n / 2) as f64 {
             return invalid(format!(
@@ -180,21 +202,34 @@ impl Sonar {
         let (k0, k1) = (k0 as usize, k1 as usize);
         let m = k1 - k0 + 1;
         let freqs: Vec<f64> = (k0..=k1).map(|k| k as f64 * p.fs / n as f64).collect();
-        let wavenumbers: Vec<f64> = freqs.iter().map(|&f| 2.0 * PI * f / p.sound_speed).collect();
+        let wavenumbers: Vec<f64> = freqs
+            .iter()
+            .map(|&f| 2.0 * PI * f / p.sound_speed)
+            .collect();
         let window: Vec<f64> = match p.window {
-            Window::Hann => (0..m).map(|j| 0.5 - 0.5 * (2.0 * PI * j as f64 / m as f64).cos()).collect(),
+            Window::Hann => (0..m)
+                .map(|j| 0.5 - 0.5 * (2.0 * PI * j as f64 / m as f64).cos())
+                .collect(),
             Window::Rect => vec![1.0; m],
         };
 
         let (reach_sq_per_gain, cos_half_angle) = match p.lobe {
-            LobeRule::Detectable { threshold_db, r0, p0, p_ref } => {
+            LobeRule::Detectable {
+                threshold_db,
+                r0,
+                p0,
+                p_ref,
+            } => {
                 if !threshold_db.is_finite() {
                     return invalid(format!("threshold_db must be finite, got {threshold_db}"));
                 }
                 pos("r0", r0)?;
                 pos("p0", p0)?;
                 pos("p_ref", p_ref)?;
-                (r0 * r0 * p0 / (10f64.powf(threshold_db / 20.0) * p_ref), -1.0)
+                (
+                    r0 * r0 * p0 / (10f64.powf(threshold_db / 20.0) * p_ref),
+                    -1.0,
+                )
             }
             LobeRule::Cone { half_angle } => {
                 if !(half_angle.is_finite() && half_angle > 0.0 && half_angle < PI) {
@@ -216,10 +251,29 @@ impl Sonar {
         };
         let atten_per_m = match p.atmosphere {
             // 10^(-alpha 2r / 20) = exp(-alpha ln(10) / 10 * r)
-            Some(atm) => freqs.iter().map(|&f| atm.alpha_db_per_m(f) * std::f64::consts::LN_10 / 10.0).collect(),
+            Some(atm) => freqs
+                .iter()
+                .map(|&f| atm.alpha_db_per_m(f) * std::f64::consts::LN_10 / 10.0)
+                .collect(),
             None => Vec::new(),
         };
+        let (fs, nf, v) = (p.fs, n as f64, p.sound_speed);
+        let freq_at = move |x: f64| (k0 as f64 + x) * fs / nf;
+        let atm = p.atmosphere;
+        let atten_at = move |x: f64| {
+            atm.map_or(0.0, |a| {
+                a.alpha_db_per_m(freq_at(x)) * std::f64::consts::LN_10 / 10.0
+            })
+        };
+        let tables = BandTables::new(
+            k0,
+            &wavenumbers,
+            &atten_per_m,
+            move |x| 2.0 * PI * freq_at(x) / v,
+            if atm.is_some() { Some(&atten_at) } else { None },
+        );
         Ok(Sonar {
+            tables,
             params,
             k0,
             k1,
@@ -239,7 +293,10 @@ impl Sonar {
     }
 
     pub fn receiver(&self) -> &GaussianBeam {
-        self.params.receiver.as_ref().unwrap_or(&self.params.emitter)
+        self.params
+            .receiver
+            .as_ref()
+            .unwrap_or(&self.params.emitter)
     }
 
     /// Two-way gain `G = S_tx S_rx` at (az, el), radians.
@@ -260,7 +317,9 @@ impl Sonar {
     /// The largest range (m) at which any leaf can count.
     pub fn max_reach(&self) -> f64 {
         match self.params.lobe {
-            LobeRule::Detectable { .. } => (self.reach_sq_per_gain * self.peak_gain()).sqrt().min(self.range_limit),
+            LobeRule::Detectable { .. } => (self.reach_sq_per_gain * self.peak_gain())
+                .sqrt()
+                .min(self.range_limit),
             LobeRule::Cone { .. } => self.range_limit,
         }
     }

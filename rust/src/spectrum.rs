@@ -12,9 +12,9 @@ use crate::sonar::Sonar;
 use rayon::prelude::*;
 
 /// Leaves per partial sum.
-pub const LEAF_CHUNK: usize = 256;
+pub const LEAF_CHUNK: usize = 64;
 /// Partial sums held at once (bounds memory to `BATCH * M` complex values).
-const BATCH: usize = 64;
+const BATCH: usize = 256;
 
 /// Per-leaf quantities the kernels need, in SI units.
 #[derive(Clone, Copy, Debug)]
@@ -24,6 +24,9 @@ pub struct LeafTerm {
     pub range: f64,
     pub beta: f64,
     pub radius: f64,
+    /// `radius^-0.9065`, `radius^0.3523` (paper model).
+    pub radius_pow_b: f64,
+    pub radius_pow_p: f64,
 }
 
 pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
@@ -32,32 +35,48 @@ pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
     if p.spreading {
         amp /= m.range * m.range;
     }
-    LeafTerm { amp, range: m.range, beta: m.beta, radius: scene.radii[m.index as usize] }
+    let i = m.index as usize;
+    LeafTerm {
+        amp,
+        range: m.range,
+        beta: m.beta,
+        radius: scene.radii[i],
+        radius_pow_b: scene.radius_pow_b[i],
+        radius_pow_p: scene.radius_pow_p[i],
+    }
 }
 
 /// Sum a chunk of leaves into `re`, `im` (length M, zeroed by the caller).
 fn chunk_sum(sonar: &Sonar, terms: &[LeafTerm], re: &mut [f64], im: &mut [f64]) {
-    let mut ws = kernel::Workspace::new(sonar.n_bins());
     for t in terms {
-        kernel::add_leaf(sonar, t, &mut ws, re, im);
+        kernel::add_leaf(sonar, t, re, im);
     }
 }
 
 /// The windowed band spectrum `(re, im)` over the M band bins for the given members.
 pub fn band_spectrum(sonar: &Sonar, scene: &Scene, members: &[Member]) -> (Vec<f64>, Vec<f64>) {
+    let terms: Vec<LeafTerm> = members
+        .iter()
+        .map(|mb| leaf_term(sonar, scene, mb))
+        .collect();
+    sum_terms(sonar, &terms)
+}
+
+/// The windowed band spectrum of the given leaf terms, summed in their order.
+pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
-    let terms: Vec<LeafTerm> = members.iter().map(|mb| leaf_term(sonar, scene, mb)).collect();
-    let mut re = vec![0.0; m];
-    let mut im = vec![0.0; m];
+    let m_pad = sonar.tables.m_pad;
+    let mut re = vec![0.0; m_pad];
+    let mut im = vec![0.0; m_pad];
     if terms.len() <= LEAF_CHUNK {
-        chunk_sum(sonar, &terms, &mut re, &mut im);
+        chunk_sum(sonar, terms, &mut re, &mut im);
     } else {
         for batch in terms.chunks(LEAF_CHUNK * BATCH) {
             let partials: Vec<(Vec<f64>, Vec<f64>)> = batch
                 .par_chunks(LEAF_CHUNK)
                 .map(|chunk| {
-                    let mut pr = vec![0.0; m];
-                    let mut pi = vec![0.0; m];
+                    let mut pr = vec![0.0; m_pad];
+                    let mut pi = vec![0.0; m_pad];
                     chunk_sum(sonar, chunk, &mut pr, &mut pi);
                     (pr, pi)
                 })
@@ -70,6 +89,8 @@ pub fn band_spectrum(sonar: &Sonar, scene: &Scene, members: &[Member]) -> (Vec<f
             }
         }
     }
+    re.truncate(m);
+    im.truncate(m);
     for j in 0..m {
         re[j] *= sonar.window[j];
         im[j] *= sonar.window[j];

@@ -1,0 +1,109 @@
+//! Criterion benchmarks of the echo kernel (`cargo bench`):
+//! - the spectrum kernel for 1e3, 1e4, 1e5 leaves at 1201 bins (MODEL.md defaults);
+//! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force.
+
+use batecho::lobe::{members, Search};
+use batecho::pose::Pose;
+use batecho::scene::Scene;
+use batecho::sonar::{Sonar, SonarParams};
+use batecho::spectrum::{sum_terms, LeafTerm};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use std::hint::black_box;
+
+/// A small deterministic generator (SplitMix64) so the bench needs no extra crates.
+struct Rng(u64);
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+    }
+}
+
+fn sonar(beamwidth_deg: f64) -> Sonar {
+    Sonar::new(SonarParams::with_beamwidth(beamwidth_deg.to_radians()).unwrap()).unwrap()
+}
+
+fn terms(n: usize, rng: &mut Rng) -> Vec<LeafTerm> {
+    (0..n)
+        .map(|_| {
+            let range = rng.uniform(1.0, 10.0);
+            let radius = rng.uniform(0.015, 0.025);
+            LeafTerm {
+                amp: 0.2 * rng.uniform(0.0, 1.0) / (range * range),
+                range,
+                beta: rng.uniform(0.0, std::f64::consts::FRAC_PI_2),
+                radius,
+                radius_pow_b: radius.powf(-0.9065),
+                radius_pow_p: radius.powf(0.3523),
+            }
+        })
+        .collect()
+}
+
+fn bench_spectrum(c: &mut Criterion) {
+    let s = sonar(30.0);
+    let mut rng = Rng(1);
+    let mut g = c.benchmark_group("spectrum_exact");
+    g.sample_size(10);
+    for &n in &[1_000usize, 10_000, 100_000] {
+        let t = terms(n, &mut rng);
+        g.throughput(Throughput::Elements((n * s.n_bins()) as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &t, |b, t| {
+            b.iter(|| black_box(sum_terms(&s, t)))
+        });
+    }
+    g.finish();
+}
+
+/// 1e6 leaves uniformly in a 100 m x 100 m x (2..12) m canopy slab.
+fn forest(n: usize) -> Scene {
+    let mut rng = Rng(7);
+    let mut centers = Vec::with_capacity(n);
+    let mut normals = Vec::with_capacity(n);
+    let mut radii = Vec::with_capacity(n);
+    for _ in 0..n {
+        centers.push([
+            rng.uniform(-50.0, 50.0),
+            rng.uniform(-50.0, 50.0),
+            rng.uniform(2.0, 12.0),
+        ]);
+        let (th, ph) = (
+            rng.uniform(0.0, std::f64::consts::PI),
+            rng.uniform(0.0, 2.0 * std::f64::consts::PI),
+        );
+        normals.push([th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()]);
+        radii.push(rng.uniform(0.015, 0.035));
+    }
+    Scene::new(centers, normals, radii).unwrap()
+}
+
+fn bench_lobe(c: &mut Criterion) {
+    let scene = forest(1_000_000);
+    eprintln!(
+        "BVH build for 1e6 leaves: {:.1} ms",
+        scene.build_time.as_secs_f64() * 1e3
+    );
+    let pose = Pose::new([0.0, 0.0, 5.0], [1.0, 0.3, 0.0], [0.0, 0.0, 1.0]).unwrap();
+    let mut g = c.benchmark_group("lobe_query_1e6");
+    g.sample_size(10);
+    for &bw in &[10.0, 50.0] {
+        let s = sonar(bw);
+        let n_in = members(&scene, &s, &pose, 0, Search::Bvh).unwrap().len();
+        eprintln!("beamwidth {bw} deg: {n_in} leaves in the lobe");
+        for (name, search) in [("bvh", Search::Bvh), ("brute_force", Search::BruteForce)] {
+            g.bench_function(BenchmarkId::new(name, bw), |b| {
+                b.iter(|| black_box(members(&scene, &s, &pose, 0, search).unwrap().len()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_spectrum, bench_lobe);
+criterion_main!(benches);

@@ -1,0 +1,105 @@
+"""Type stubs for the Rust extension ``batecho._core`` (see rust/src/bindings.rs).
+
+Arrays are float64 NumPy arrays unless noted; lengths in metres, angles in radians.
+"""
+
+from os import PathLike
+from typing import Optional
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_F64 = npt.NDArray[np.float64]
+_BeamTuple = tuple[float, float, float, float, float, float]  # (A1, sx, sy, theta, az0, el0)
+
+class Scene:
+    """Leaves (centres (n,3), unit normals (n,3), radii (n,)) and their BVH."""
+
+    def __init__(self, centers: _F64, normals: _F64, radii: _F64) -> None: ...
+    @property
+    def n_leaves(self) -> int: ...
+    @property
+    def build_time_s(self) -> float: ...
+    @property
+    def n_nodes(self) -> int: ...
+
+class Sonar:
+    """A validated sonar with its derived tables (see ``batecho.Sonar``)."""
+
+    def __init__(
+        self,
+        emitter: _BeamTuple,
+        receiver: Optional[_BeamTuple],
+        lobe: str,
+        threshold_db: float,
+        r0: float,
+        p0: float,
+        p_ref: float,
+        cone_half_angle: Optional[float],
+        max_range: Optional[float],
+        fs: float,
+        n_samples: int,
+        f_lo: float,
+        f_hi: float,
+        sound_speed: float,
+        leaf_model: str,
+        spreading: bool,
+        gain: float,
+        window: str,
+        atmosphere: Optional[tuple[float, float, float]],
+        min_range: float,
+        too_close: str,
+        min_ka: float,
+    ) -> None: ...
+    @property
+    def freqs(self) -> _F64: ...
+    @property
+    def bins(self) -> tuple[int, int]: ...
+    @property
+    def range_limit(self) -> float: ...
+    @property
+    def max_reach(self) -> float: ...
+    @property
+    def absorption_db_per_m(self) -> Optional[_F64]: ...
+
+def simulate_exact(
+    scene: Scene,
+    sonar: Sonar,
+    positions: _F64,
+    forward: _F64,
+    up: _F64,
+    left: _F64,
+    impulse: bool = True,
+    search: str = "bvh",
+) -> tuple[npt.NDArray[np.complex128], Optional[_F64], npt.NDArray[np.uint64]]: ...
+def lobe_members(
+    scene: Scene,
+    sonar: Sonar,
+    position: _F64,
+    forward: _F64,
+    up: _F64,
+    left: _F64,
+    search: str = "bvh",
+) -> npt.NDArray[np.int64]: ...
+def load_obj(
+    path: str | PathLike[str],
+    leaf_patterns: Optional[list[str]] = None,
+    per: str = "patch",
+    up: str = "z",
+    scale: float = 1.0,
+    transform: Optional[_F64] = None,
+) -> tuple[
+    _F64,
+    _F64,
+    _F64,
+    _F64,
+    npt.NDArray[np.int64],
+    _F64,
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    list[str],
+    int,
+    list[str],
+]: ...

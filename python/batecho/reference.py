@@ -1,0 +1,234 @@
+"""The NumPy reference: MODEL.md written out for clarity, not speed.
+
+Plain NumPy and SciPy, a brute-force lobe test (no BVH, no Rust). ``simulate`` and
+``lobe_members`` have the same signatures and results as ``batecho.simulate`` and
+``batecho.lobe_members``; the property tests hold the Rust core to this module.
+
+One deliberate detail: the lobe test is a threshold, and a leaf on its boundary is decided by
+the last bit of ``atan2`` and ``exp``. The Rust core calls the C library's ``atan2`` and
+``exp``; NumPy's SIMD versions may differ from it in the last bit. So the inputs of the
+decision use Python's ``math`` functions (the same C library), and boundary leaves are decided
+identically. Everything else is vectorised NumPy.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy.special import erf, j1
+
+from .absorption import iso9613_alpha_db_per_m
+from .echoes import Echoes
+from .leaves import Leaves, as_leaves
+from .poses import Poses
+from .sonar import Beam, Sonar
+
+_atan2 = np.frompyfunc(math.atan2, 2, 1)
+_exp = np.frompyfunc(math.exp, 1, 1)
+
+
+def _libm(f, *args) -> np.ndarray:
+    return np.asarray(f(*args), dtype=np.float64).reshape(np.shape(args[0]))
+
+
+# Section 2: the beampattern ----------------------------------------------------------------
+def _sigma_from_beamwidth(beamwidth_deg: float) -> float:
+    # sigma = (BW/2) / sqrt(2 (-ln 0.7079)), BW in radians
+    return (math.radians(beamwidth_deg) / 2.0) / math.sqrt(2.0 * -math.log(0.7079))
+
+
+def _one_way_gain(beam: Beam, az: np.ndarray, el: np.ndarray) -> np.ndarray:
+    """S = A1 exp(-(a daz^2 + 2b daz del + c del^2))."""
+    if beam.beamwidth_deg is not None:
+        sx = sy = _sigma_from_beamwidth(beam.beamwidth_deg)
+    else:
+        s = np.atleast_1d(np.asarray(beam.sigma_deg, dtype=np.float64))
+        sx, sy = math.radians(float(s[0])), math.radians(float(s[-1]))
+    th = math.radians(beam.rotation_deg)
+    st, ct, s2t = math.sin(th), math.cos(th), math.sin(2.0 * th)
+    a = ct * ct / (2.0 * sx * sx) + st * st / (2.0 * sy * sy)
+    b = -s2t / (4.0 * sx * sx) + s2t / (4.0 * sy * sy)
+    c = st * st / (2.0 * sx * sx) + ct * ct / (2.0 * sy * sy)
+    daz = az - math.radians(beam.center_deg[0])
+    daz = np.where(daz > math.pi, daz - 2.0 * math.pi, daz)  # wrap to [-pi, pi]
+    daz = np.where(daz < -math.pi, daz + 2.0 * math.pi, daz)
+    dl = el - math.radians(beam.center_deg[1])
+    q = a * daz * daz + 2.0 * b * daz * dl + c * dl * dl
+    return float(beam.amplitude) * _libm(_exp, -q)
+
+
+def _two_way_gain(sonar: Sonar, az: np.ndarray, el: np.ndarray) -> np.ndarray:
+    s_tx = _one_way_gain(sonar.beam, az, el)
+    s_rx = s_tx if sonar.receiver is None else _one_way_gain(sonar.receiver, az, el)
+    return s_tx * s_rx
+
+
+# Section 1 and 3: angles and the lobe --------------------------------------------------------
+def _view(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
+    """Range, unit direction, azimuth, elevation and two-way gain of every leaf from pose i."""
+    p = poses.positions[i]
+    d, u, l_ = poses.forward[i], poses.up[i], poses.left[i]
+    dx = leaves.centers - p
+    r = np.sqrt(dx[:, 0] * dx[:, 0] + dx[:, 1] * dx[:, 1] + dx[:, 2] * dx[:, 2])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = dx / r[:, None]
+    ed = e[:, 0] * d[0] + e[:, 1] * d[1] + e[:, 2] * d[2]
+    el_ = e[:, 0] * l_[0] + e[:, 1] * l_[1] + e[:, 2] * l_[2]
+    eu = e[:, 0] * u[0] + e[:, 1] * u[1] + e[:, 2] * u[2]
+    az = _libm(_atan2, el_, ed)
+    el = _libm(_atan2, eu, np.sqrt(ed * ed + el_ * el_))
+    G = _two_way_gain(sonar, az, el)
+    return r, e, ed, G
+
+
+def _counting(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
+    """Boolean mask of counting leaves for pose i, with the view quantities."""
+    r, e, ed, G = _view(leaves, sonar, poses, i)
+    too_close = ~(r >= sonar.min_range_m)
+    if too_close.any() and sonar.too_close == "raise":
+        j = int(np.argmax(too_close))
+        raise ValueError(
+            f"leaf {j} is {r[j]:.3e} m from pose {i}, closer than min_range_m = "
+            f"{sonar.min_range_m} m"
+        )
+    record = sonar.sound_speed * sonar.n_samples / (2.0 * sonar.fs)
+    limit = record if sonar.max_range_m is None else min(float(sonar.max_range_m), record)
+    mask = ~too_close & (r <= limit)
+    if sonar.lobe == "cone":
+        mask &= ed >= math.cos(math.radians(sonar.cone_half_angle_deg))
+    else:
+        # r <= sqrt(r0^2 p0 G / (10^(T/20) p_ref))
+        K = (
+            sonar.r0_m
+            * sonar.r0_m
+            * sonar.p0_pa
+            / (10.0 ** (sonar.threshold_db / 20.0) * sonar.p_ref_pa)
+        )
+        with np.errstate(invalid="ignore"):
+            mask &= r <= np.sqrt(K * G)
+    return mask, r, e, G
+
+
+def lobe_members(
+    scene: Any, sonar: Sonar, pose: Poses, *, search: str = "brute_force"
+) -> np.ndarray:
+    """Indices (ascending) of the leaves that count for one pose, by testing every leaf."""
+    leaves = as_leaves(scene)
+    if len(pose) != 1:
+        raise ValueError(f"lobe_members takes one pose; got {len(pose)}")
+    mask = _counting(leaves, sonar, pose, 0)[0]
+    return np.flatnonzero(mask).astype(np.int64)
+
+
+# Section 5: the frequency grid -------------------------------------------------------------
+def _grid(sonar: Sonar):
+    n, fs = sonar.n_samples, sonar.fs
+    df = fs / n
+    k0 = math.floor(sonar.band_hz[0] / df + 0.5)  # round half up
+    k1 = math.floor(sonar.band_hz[1] / df + 0.5)
+    k = np.arange(k0, k1 + 1)
+    f = k * fs / n
+    M = k1 - k0 + 1
+    if sonar.window == "hann":
+        w = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(M) / M)  # periodic Hann
+    else:
+        w = np.ones(M)
+    return k0, k1, f, w
+
+
+# Section 4: leaf scattering ----------------------------------------------------------------
+def _leaf_paper(c: np.ndarray, beta: np.ndarray):
+    A = 0.5003 * c**2 + 0.6867
+    B = 0.3999 * c ** (-0.9065) + 0.9979
+    L = np.maximum(0.0, A * np.cos(B * beta))
+    P = 0.9824 * c**0.3523 - 0.9459
+    psi = erf(P * (1.57 - beta)) - 2.6343
+    return L, psi
+
+
+def _leaf_physical_optics(c: np.ndarray, beta: np.ndarray):
+    x = 2.0 * c * np.sin(beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        jinc = np.where(x == 0.0, 1.0, 2.0 * j1(x) / x)  # 2 J1(x)/x, limit 1 at x = 0
+    L = c**2 / 2.0 * np.cos(beta) * np.abs(jinc)
+    return L, np.full_like(L, -np.pi / 2)
+
+
+def _spectrum(sonar: Sonar, r, G, beta, a, f, w, chunk: int = 2048) -> np.ndarray:
+    """Y_k = w_k sum_i A_ki exp(j phi_ki) over the band bins."""
+    v = sonar.sound_speed
+    k = 2.0 * np.pi * f / v
+    model = _leaf_paper if sonar.leaf_model == "paper" else _leaf_physical_optics
+    alpha = None
+    if sonar.absorption is not None:
+        atm = sonar.absorption
+        alpha = iso9613_alpha_db_per_m(f, atm.temperature_c, atm.relative_humidity, atm.pressure_pa)
+    Y = np.zeros(f.shape, dtype=np.complex128)
+    for s in range(0, len(r), chunk):
+        ri, Gi, bi, ai = (x[s : s + chunk, None] for x in (r, G, beta, a))
+        c = k * ai
+        L, psi = model(c, bi)
+        A = sonar.gain * Gi * L / k
+        if sonar.spreading:
+            A = A / ri**2
+        if alpha is not None:
+            A = A * 10.0 ** (-alpha * 2.0 * ri / 20.0)
+        # phi = -2 k r - psi, with 2 k r reduced through the fractional part of f 2r / v
+        cycles = f * (2.0 * ri / v)
+        phi = -2.0 * np.pi * (cycles - np.round(cycles)) - psi
+        Y += np.sum(A * np.exp(1j * phi), axis=0)
+    return w * Y
+
+
+def _incidence(e: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """beta = angle(e, n) folded into [0, pi/2], via atan2(|e x n|, e . n)."""
+    cx = e[:, 1] * n[:, 2] - e[:, 2] * n[:, 1]
+    cy = e[:, 2] * n[:, 0] - e[:, 0] * n[:, 2]
+    cz = e[:, 0] * n[:, 1] - e[:, 1] * n[:, 0]
+    beta = np.arctan2(
+        np.sqrt(cx * cx + cy * cy + cz * cz),
+        e[:, 0] * n[:, 0] + e[:, 1] * n[:, 1] + e[:, 2] * n[:, 2],
+    )
+    return np.minimum(beta, np.pi - beta)
+
+
+def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> Echoes:
+    """Echoes of ``scene`` for every pose, straight from MODEL.md (``method`` is ignored: the
+    reference is always the exact sum)."""
+    leaves = as_leaves(scene)
+    if not isinstance(sonar, Sonar) or not isinstance(poses, Poses):
+        raise TypeError("simulate(scene, sonar: Sonar, poses: Poses)")
+    k0, k1, f, w = _grid(sonar)
+    a_all = leaves.radii
+    if sonar.min_ka > 0:
+        ka = 2.0 * np.pi * f[0] / sonar.sound_speed * a_all
+        if ka.min() < sonar.min_ka:
+            raise ValueError(f"leaf {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
+    n = sonar.n_samples
+    spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
+    impulses = np.zeros((len(poses), n))
+    counts = np.zeros(len(poses), dtype=np.int64)
+    for i in range(len(poses)):
+        mask, r, e, G = _counting(leaves, sonar, poses, i)
+        idx = np.flatnonzero(mask)
+        counts[i] = idx.size
+        if idx.size:
+            beta = _incidence(e[idx], leaves.normals[idx])
+            spectra[i] = _spectrum(sonar, r[idx], G[idx], beta, a_all[idx], f, w)
+        full = np.zeros(n // 2 + 1, dtype=np.complex128)
+        full[k0 : k1 + 1] = spectra[i]
+        impulses[i] = 2.0 * np.fft.irfft(full, n)
+    return Echoes(
+        spectrum=spectra,
+        freqs=f,
+        impulse=impulses,
+        times=np.arange(n) / sonar.fs,
+        n_leaves=counts,
+        sonar=sonar,
+        poses=poses,
+    )
+
+
+__all__ = ["lobe_members", "simulate"]

@@ -1,0 +1,26 @@
+"""Helpers for the tests: relative errors and scene builders in a pose's frame."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import batecho
+
+
+def rel_err(a: np.ndarray, b: np.ndarray) -> float:
+    """||a - b||_2 / ||b||_2 (0 when both are exactly zero)."""
+    nb = np.linalg.norm(b)
+    if nb == 0.0:
+        return 0.0 if np.linalg.norm(a) == 0.0 else np.inf
+    return float(np.linalg.norm(a - b) / nb)
+
+
+def frame_points(pose: batecho.Poses, r, az, el) -> np.ndarray:
+    """World points at range r, azimuth az, elevation el (radians) in the frame of pose 0."""
+    r, az, el = (np.asarray(x, dtype=np.float64) for x in (r, az, el))
+    e = (
+        (np.cos(el) * np.cos(az))[:, None] * pose.forward[0]
+        + (np.cos(el) * np.sin(az))[:, None] * pose.left[0]
+        + np.sin(el)[:, None] * pose.up[0]
+    )
+    return pose.positions[0] + r[:, None] * e

@@ -1,0 +1,62 @@
+"""Results are bit-identical for any number of threads (the reduction order is fixed)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+
+SCRIPT = textwrap.dedent(
+    """
+    import sys
+    import numpy as np
+    import batecho
+    from batecho.examples import canonical_leaf_box
+    leaves = canonical_leaf_box(np.random.default_rng(3))
+    extra = batecho.Leaves(leaves.centers * [1.0, 0.5, 0.5], leaves.normals, leaves.radii)
+    leaves = batecho.Leaves.concatenate([leaves, extra])
+    poses = batecho.Poses([[0, 0, 0], [0, 0.3, 0.1], [0.5, -0.2, 0]],
+                          [[1, 0, 0], [1, 0.1, 0], [1, 0, 0.1]])
+    out = {}
+    for model in ("paper", "physical_optics"):
+        for atm in (None, batecho.Atmosphere()):
+            e = batecho.simulate(leaves, batecho.Sonar(leaf_model=model, absorption=atm), poses)
+            key = f"{model}-{atm is not None}"
+            out[key + "-spec"] = e.spectrum
+            out[key + "-imp"] = e.impulse
+            out[key + "-n"] = e.n_leaves
+    np.savez(sys.argv[1], **out)
+    """
+)
+
+
+def run(threads: int, path) -> dict:
+    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+    subprocess.run([sys.executable, "-c", SCRIPT, str(path)], env=env, check=True)
+    with np.load(path) as f:
+        return {k: f[k] for k in f.files}
+
+
+def test_results_are_bit_identical_with_one_and_two_threads(tmp_path):
+    one = run(1, tmp_path / "one.npz")
+    two = run(2, tmp_path / "two.npz")
+    assert one.keys() == two.keys()
+    for k in one:
+        assert one[k].tobytes() == two[k].tobytes(), k
+    assert one["paper-False-n"].min() > 256  # several leaf chunks per pose
+
+
+def test_repeated_calls_are_bit_identical():
+    import batecho
+    from batecho.examples import canonical_leaf_box
+
+    leaves = canonical_leaf_box(np.random.default_rng(4))
+    scene = batecho.Scene(leaves)
+    pose = batecho.Poses([0, 0, 0], [1, 0, 0])
+    a = batecho.simulate(scene, batecho.Sonar(), pose)
+    b = batecho.simulate(scene, batecho.Sonar(), pose)
+    assert a.spectrum.tobytes() == b.spectrum.tobytes()
+    assert a.impulse.tobytes() == b.impulse.tobytes()
