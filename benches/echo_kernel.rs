@@ -2,6 +2,7 @@
 //! - the spectrum kernel for 1e3, 1e4, 1e5 leaves at 1201 bins (MODEL.md defaults);
 //! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force.
 
+use batecho::fast::{fast_sum_terms, FastPlan};
 use batecho::lobe::{members, Search};
 use batecho::pose::Pose;
 use batecho::scene::Scene;
@@ -105,5 +106,23 @@ fn bench_lobe(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_spectrum, bench_lobe);
+fn bench_fast(c: &mut Criterion) {
+    let s = sonar(30.0);
+    let mut rng = Rng(1);
+    let mut g = c.benchmark_group("spectrum_fast");
+    g.sample_size(10);
+    for &tol in &[1e-3, 1e-6, 1e-9, 1e-12] {
+        let plan = FastPlan::new(&s, tol).unwrap();
+        for &n in &[1_000usize, 100_000, 1_000_000] {
+            let t = terms(n, &mut rng);
+            g.throughput(Throughput::Elements(n as u64));
+            g.bench_with_input(BenchmarkId::new(format!("tol{tol:e}"), n), &t, |b, t| {
+                b.iter(|| black_box(fast_sum_terms(&s, &plan, t)))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_spectrum, bench_fast, bench_lobe);
 criterion_main!(benches);

@@ -1,10 +1,17 @@
-"""Generate rust/src/erf_table.rs: Taylor coefficients of erf on [0, 6] in 24 intervals.
+"""Generate rust/src/erf_table.rs: two representations of erf on [0, 6].
+
+1. Taylor coefficients of erf on [0, 6] in 24 intervals (used where a block of lanes shares
+   an interval: one polynomial, broadcast coefficients).
 
 Interval i covers [i/4, (i+1)/4]; its polynomial is in u = z - (i + 0.5)/4, |u| <= 1/8, with
 coefficients erf^(n)(z_i)/n! computed in 50-digit arithmetic (mpmath):
 erf^(n)(z) = (2/sqrt(pi)) (-1)^(n-1) H_{n-1}(z) exp(-z^2) for n >= 1.
 Degree 14 leaves a truncation error below 1e-18 (checked here against mpmath on a fine grid).
 A 25th "interval" [6, inf) is the constant 1 (erfc(6) = 2e-17 rounds away in f64).
+
+2. Chebyshev coefficients of the scaled complementary error function erfcx(z) = exp(z^2)
+   erfc(z) on [0, 6], in t = z/3 - 1 (for lanes with different arguments: no table lookup;
+   erf = 1 - exp(-z^2) erfcx(z)). 40 terms; the tail beyond is below 1e-17 (checked here).
 
 Run: python tools/gen_erf_table.py > rust/src/erf_table.rs
 """
@@ -46,6 +53,18 @@ def main():
     print(f"pub static ERF_TAYLOR: [[f64; {DEGREE + 1}]; {N_INTERVALS + 1}] = [")
     for c in rows:
         print("    [" + ", ".join(repr(float(x)) for x in c) + "],")
+    print("];")
+    n = 40
+    xs = [mp.cos(mp.pi * (k + mp.mpf(1) / 2) / n) for k in range(n)]
+    vals = [mp.exp((3 * x + 3) ** 2) * mp.erfc(3 * x + 3) for x in xs]
+    cheb = []
+    for j in range(n):
+        sj = sum(vals[k] * mp.cos(mp.pi * j * (k + mp.mpf(1) / 2) / n) for k in range(n))
+        cheb.append(2 * sj / n if j else sj / n)
+    assert max(abs(c) for c in cheb[-4:]) < mp.mpf("1e-17")
+    print(f"pub static ERFCX_CHEB: [f64; {n}] = [")
+    for c in cheb:
+        print(f"    {float(c)!r},")
     print("];")
 
 

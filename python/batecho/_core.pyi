@@ -4,7 +4,6 @@ Arrays are float64 NumPy arrays unless noted; lengths in metres, angles in radia
 """
 
 from os import PathLike
-from typing import Optional
 
 import numpy as np
 import numpy.typing as npt
@@ -31,14 +30,14 @@ class Sonar:
     def __init__(
         self,
         emitter: _BeamTuple,
-        receiver: Optional[_BeamTuple],
+        receiver: _BeamTuple | None,
         lobe: str,
         threshold_db: float,
         r0: float,
         p0: float,
         p_ref: float,
-        cone_half_angle: Optional[float],
-        max_range: Optional[float],
+        cone_half_angle: float | None,
+        max_range: float | None,
         fs: float,
         n_samples: int,
         f_lo: float,
@@ -48,7 +47,7 @@ class Sonar:
         spreading: bool,
         gain: float,
         window: str,
-        atmosphere: Optional[tuple[float, float, float]],
+        atmosphere: tuple[float, float, float] | None,
         min_range: float,
         too_close: str,
         min_ka: float,
@@ -62,9 +61,9 @@ class Sonar:
     @property
     def max_reach(self) -> float: ...
     @property
-    def absorption_db_per_m(self) -> Optional[_F64]: ...
+    def absorption_db_per_m(self) -> _F64 | None: ...
 
-def simulate_exact(
+def simulate(
     scene: Scene,
     sonar: Sonar,
     positions: _F64,
@@ -73,7 +72,9 @@ def simulate_exact(
     left: _F64,
     impulse: bool = True,
     search: str = "bvh",
-) -> tuple[npt.NDArray[np.complex128], Optional[_F64], npt.NDArray[np.uint64]]: ...
+    method: str = "exact",
+    tol: float = 1e-12,
+) -> tuple[npt.NDArray[np.complex128], _F64 | None, npt.NDArray[np.uint64]]: ...
 def lobe_members(
     scene: Scene,
     sonar: Sonar,
@@ -85,11 +86,11 @@ def lobe_members(
 ) -> npt.NDArray[np.int64]: ...
 def load_obj(
     path: str | PathLike[str],
-    leaf_patterns: Optional[list[str]] = None,
+    leaf_patterns: list[str] | None = None,
     per: str = "patch",
     up: str = "z",
     scale: float = 1.0,
-    transform: Optional[_F64] = None,
+    transform: _F64 | None = None,
 ) -> tuple[
     _F64,
     _F64,

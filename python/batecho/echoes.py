@@ -12,7 +12,7 @@ from .poses import Poses
 from .scene import as_scene
 from .sonar import Sonar
 
-_METHODS = ("exact",)
+_METHODS = ("exact", "fast", "auto")
 
 
 @dataclass(frozen=True)
@@ -57,29 +57,34 @@ def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
     return sonar, poses
 
 
-def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> Echoes:
+def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact",
+             tol: float = 1e-12) -> Echoes:
     """Echoes of ``scene`` (a Scene, or Leaves) for each pose in ``poses``.
 
-    ``method="exact"`` sums every (leaf, bin) term (MODEL.md, exact to rounding).
+    ``method``:
+
+    - ``"exact"`` sums every (leaf, bin) term (MODEL.md, exact to rounding);
+    - ``"fast"`` uses a type-1 NUFFT in the round-trip delays, with a relative L2 error of the
+      spectrum at most ``tol`` (``1e-13 <= tol < 1``);
+    - ``"auto"`` picks, per pose, whichever of the two is cheaper for ``tol``.
+
     Poses run in parallel in Rust with the GIL released; results are bit-identical for any
     number of threads.
     """
     sonar, poses = _check(sonar, poses)
     if method not in _METHODS:
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
+    try:
+        tol = float(tol)
+    except (TypeError, ValueError):
+        raise TypeError(f"tol must be a number, got {tol!r}") from None
+    if not (0.0 < tol < 1.0):
+        raise ValueError(f"tol must be in (0, 1), got {tol!r}")
     sc = as_scene(scene)
-    spec, imp, counts = _core.simulate_exact(
-        sc._core, sonar._core, poses.positions, poses.forward, poses.up, poses.left, True, "bvh"
-    )
-    return Echoes(
-        spectrum=spec,
-        freqs=sonar.freqs,
-        impulse=imp,
-        times=sonar.times,
-        n_leaves=counts.astype(np.int64),
-        sonar=sonar,
-        poses=poses,
-    )
+    spec, imp, counts = _core.simulate(sc._core, sonar._core, poses.positions, poses.forward,
+                                       poses.up, poses.left, True, "bvh", method, tol)
+    return Echoes(spectrum=spec, freqs=sonar.freqs, impulse=imp, times=sonar.times,
+                  n_leaves=counts.astype(np.int64), sonar=sonar, poses=poses)
 
 
 def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") -> np.ndarray:

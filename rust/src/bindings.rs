@@ -266,10 +266,11 @@ type SimOut<'py> = (
 );
 
 /// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`.
-#[pyfunction]
-#[pyo3(signature = (scene, sonar, positions, forward, up, left, impulse=true, search="bvh"))]
+/// `method` is "exact", "fast" or "auto" (the last two use `tol`).
+#[pyfunction(name = "simulate")]
+#[pyo3(signature = (scene, sonar, positions, forward, up, left, impulse=true, search="bvh", method="exact", tol=1e-12))]
 #[allow(clippy::too_many_arguments)]
-fn simulate_exact<'py>(
+fn simulate_py<'py>(
     py: Python<'py>,
     scene: &PyScene,
     sonar: &PySonar,
@@ -279,12 +280,24 @@ fn simulate_exact<'py>(
     left: PyReadonlyArray2<'py, f64>,
     impulse: bool,
     search: &str,
+    method: &str,
+    tol: f64,
 ) -> PyResult<SimOut<'py>> {
     let poses = poses_from(&positions, &forward, &up, &left)?;
     let search = search_from(search)?;
+    let method = match method {
+        "exact" => simulate::Method::Exact,
+        "fast" => simulate::Method::Fast { tol },
+        "auto" => simulate::Method::Auto { tol },
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "method must be 'exact', 'fast' or 'auto', got {other:?}"
+            )))
+        }
+    };
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let out = py
-        .detach(move || simulate::simulate(&sc, &so, &poses, impulse, search))
+        .detach(move || simulate::simulate_with(&sc, &so, &poses, impulse, search, method))
         .map_err(to_py)?;
     let p = out.n_leaves.len();
     let m = out.n_bins;
@@ -443,7 +456,7 @@ fn load_obj<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScene>()?;
     m.add_class::<PySonar>()?;
-    m.add_function(wrap_pyfunction!(simulate_exact, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_py, m)?)?;
     m.add_function(wrap_pyfunction!(lobe_members, m)?)?;
     m.add_function(wrap_pyfunction!(load_obj, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

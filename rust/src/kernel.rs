@@ -73,7 +73,7 @@ pub struct BandTables {
     pub cheb_last: [f64; NODES],
 }
 
-/// The per-bin tables evaluated at the Chebyshev nodes of every block.
+/// The per-bin tables evaluated at arbitrary (fractional) band-bin positions.
 #[derive(Clone, Debug)]
 pub struct NodeTables {
     pub n_blocks: usize,
@@ -127,18 +127,7 @@ impl BandTables {
                 c + h * if i < NODES { tn[i] } else { 1.0 }
             })
             .collect();
-        let nk: Vec<f64> = node_x.iter().map(|&x| wavenumber(x)).collect();
-        let nodes = NodeTables {
-            n_blocks,
-            inv_k: nk.iter().map(|&x| 1.0 / x).collect(),
-            kp: nk.iter().map(|&x| x.powf(PAPER_BP)).collect(),
-            kq: nk.iter().map(|&x| x.powf(PAPER_PP)).collect(),
-            atten: match atten_at {
-                Some(f) => node_x.iter().map(|&x| f(x)).collect(),
-                None => Vec::new(),
-            },
-            k: nk,
-        };
+        let nodes = NodeTables::at(&node_x, n_blocks, &wavenumber, atten_at);
         // Interpolation matrices: Chebyshev coefficients c_d = (2 - [d=0]) / N sum_i F_i T_d(t_i),
         // then monomials from T_d(t) = sum_p C[d][p] t^p.
         let mut cheb_mono = [[0.0f64; NODES]; NODES];
@@ -191,7 +180,7 @@ impl BandTables {
 
 /// `exp(-j 2 pi t)` for `t` in cycles.
 #[inline]
-fn cis_neg(t: f64) -> (f64, f64) {
+pub(crate) fn cis_neg(t: f64) -> (f64, f64) {
     let (s, c) = (2.0 * PI * t).sin_cos();
     (c, -s)
 }
@@ -208,24 +197,14 @@ pub fn add_leaf(sonar: &Sonar, t: &LeafTerm, re: &mut [f64], im: &mut [f64]) {
     let p = &sonar.params;
     let q = CyclesPerBin::new(t.range, p.fs, p.n_samples, p.sound_speed);
     if p.leaf_model == LeafModel::Paper {
-        let ap = t.radius_pow_b;
-        // x = B(c) beta decreases with k; L = max(0, A cos x) is zero where x >= pi/2.
-        let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * ap, PAPER_B0) * t.beta;
-        let x_hi = PAPER_B1.mul_add(tab.kp[0] * ap, PAPER_B0) * t.beta;
-        if x_lo >= FRAC_PI_2 {
-            return; // cos x <= 0 at every bin: L = 0, the leaf adds nothing
+        let regime = paper_regime(tab, t);
+        if regime == PaperRegime::Zero {
+            return; // cos(B beta) <= 0 at every bin: L = 0, the leaf adds nothing
         }
-        if x_hi <= PI {
-            let leaf = PaperLeaf {
-                amp: t.amp,
-                range: t.range,
-                beta: t.beta,
-                a: t.radius,
-                ap,
-                aq: t.radius_pow_p,
-            };
-            // Only a leaf with no zero crossing of cos x in the band is smooth (analytic in k).
-            let smooth = x_hi < FRAC_PI_2;
+        if regime != PaperRegime::OutOfDomain {
+            let leaf = PaperLeaf::new(t);
+            // Only a leaf with no zero crossing of the cosine in the band is smooth in k.
+            let smooth = regime == PaperRegime::Smooth;
             if tab.atten.is_empty() {
                 paper_blocks::<false>(tab, &leaf, &q, smooth, re, im);
             } else {
@@ -264,21 +243,83 @@ pub fn add_leaf_scalar(
     }
 }
 
+impl NodeTables {
+    /// Tables at band-bin positions `x` (padded by the caller to a multiple of [`LANES`]).
+    pub fn at(
+        x: &[f64],
+        n_blocks: usize,
+        wavenumber: &dyn Fn(f64) -> f64,
+        atten_at: Option<&dyn Fn(f64) -> f64>,
+    ) -> Self {
+        let k: Vec<f64> = x.iter().map(|&x| wavenumber(x)).collect();
+        NodeTables {
+            n_blocks,
+            inv_k: k.iter().map(|&v| 1.0 / v).collect(),
+            kp: k.iter().map(|&v| v.powf(PAPER_BP)).collect(),
+            kq: k.iter().map(|&v| v.powf(PAPER_PP)).collect(),
+            atten: match atten_at {
+                Some(f) => x.iter().map(|&x| f(x)).collect(),
+                None => Vec::new(),
+            },
+            k,
+        }
+    }
+}
+
 /// Per-leaf constants of the paper model's vector paths.
-struct PaperLeaf {
-    amp: f64,
-    range: f64,
-    beta: f64,
-    a: f64,
-    ap: f64,
-    aq: f64,
+pub(crate) struct PaperLeaf {
+    pub(crate) amp: f64,
+    pub(crate) range: f64,
+    pub(crate) beta: f64,
+    pub(crate) a: f64,
+    pub(crate) ap: f64,
+    pub(crate) aq: f64,
+}
+
+impl PaperLeaf {
+    pub(crate) fn new(t: &LeafTerm) -> Self {
+        PaperLeaf {
+            amp: t.amp,
+            range: t.range,
+            beta: t.beta,
+            a: t.radius,
+            ap: t.radius_pow_b,
+            aq: t.radius_pow_p,
+        }
+    }
+}
+
+/// Where `B(c) beta` (which decreases with k) lies over the band: `L = max(0, A cos(B beta))`
+/// is zero at every bin (`Zero`), analytic in k (`Smooth`, no zero crossing of the cosine), or
+/// kinked where the cosine crosses zero inside the band (`Kinked`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PaperRegime {
+    Zero,
+    Smooth,
+    Kinked,
+    /// `B beta` exceeds pi somewhere: outside the polynomial cosine's domain (tiny leaves).
+    OutOfDomain,
+}
+
+pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
+    let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * t.radius_pow_b, PAPER_B0) * t.beta;
+    let x_hi = PAPER_B1.mul_add(tab.kp[0] * t.radius_pow_b, PAPER_B0) * t.beta;
+    if x_lo >= FRAC_PI_2 {
+        PaperRegime::Zero
+    } else if x_hi > PI {
+        PaperRegime::OutOfDomain
+    } else if x_hi < FRAC_PI_2 {
+        PaperRegime::Smooth
+    } else {
+        PaperRegime::Kinked
+    }
 }
 
 /// The leaf factor `F = amp L exp(-j psi) / k [exp(-atten r)]` of the paper model on one block
 /// of lanes, from the per-bin tables `k`, `1/k`, `k^-0.9065`, `k^0.3523` (and `atten`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn paper_factor<const ATTEN: bool>(
+pub(crate) fn paper_factor<const ATTEN: bool>(
     lf: &PaperLeaf,
     k: &[f64; LANES],
     inv_k: &[f64; LANES],
@@ -372,7 +413,7 @@ fn accumulate_block(
     }
 }
 
-fn lanes(v: &[f64], j0: usize) -> &[f64; LANES] {
+pub(crate) fn lanes(v: &[f64], j0: usize) -> &[f64; LANES] {
     v[j0..j0 + LANES]
         .try_into()
         .expect("tables are padded to LANES")

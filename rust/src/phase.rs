@@ -17,6 +17,7 @@ pub struct CyclesPerBin {
 }
 
 impl CyclesPerBin {
+    #[inline(always)]
     pub fn new(range: f64, fs: f64, n: usize, sound_speed: f64) -> Self {
         let (h, l) = two_prod(fs, 2.0 * range);
         let (dh, dl) = two_prod(n as f64, sound_speed);
@@ -30,7 +31,7 @@ impl CyclesPerBin {
     }
 
     /// `k q` modulo 1, in [-0.5, 0.5].
-    #[inline]
+    #[inline(always)]
     pub fn frac_at(&self, k: f64) -> f64 {
         let (p, e) = two_prod(k, self.hi);
         let t = (p - p.round()) + (e + k * self.lo);

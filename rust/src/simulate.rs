@@ -2,6 +2,7 @@
 //! pose, poses in parallel.
 
 use crate::error::{invalid, Result};
+use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::impulse::impulse_from_band;
 use crate::lobe::{members, Search};
 use crate::pose::Pose;
@@ -44,6 +45,34 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
     Ok(())
 }
 
+/// How the band spectrum is summed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Method {
+    /// Every (leaf, bin) term, exact to rounding.
+    Exact,
+    /// The NUFFT path, relative L2 error of the spectrum at most `tol`.
+    Fast { tol: f64 },
+    /// Per pose, whichever of the two is cheaper for `tol` (exact when `tol` is below the fast
+    /// path's floor).
+    Auto { tol: f64 },
+}
+
+/// Estimated cost (ns, one core) of summing `n` leaves exactly over `m` bins.
+pub fn cost_exact(n: usize, m: usize) -> f64 {
+    1.9 * (n * m) as f64
+}
+
+/// Estimated cost (ns, one core) of the fast path for `n` leaves.
+pub fn cost_fast(n: usize, m: usize, plan: &FastPlan) -> f64 {
+    let p = plan.p as f64;
+    let w = plan.nufft.w as f64;
+    let nf = plan.nufft.nf as f64;
+    n as f64 * (40.0 + 3.0 * p + 0.6 * p * w)
+        + p * (nf * nf.log2() * 1.5 + 3.0 * nf)
+        + 2.0 * p * m as f64
+}
+
+/// Echoes by the exact method.
 pub fn simulate(
     scene: &Scene,
     sonar: &Sonar,
@@ -51,7 +80,32 @@ pub fn simulate(
     with_impulse: bool,
     search: Search,
 ) -> Result<Echoes> {
+    simulate_with(scene, sonar, poses, with_impulse, search, Method::Exact)
+}
+
+pub fn simulate_with(
+    scene: &Scene,
+    sonar: &Sonar,
+    poses: &[Pose],
+    with_impulse: bool,
+    search: Search,
+    method: Method,
+) -> Result<Echoes> {
     check_leaf_sizes(scene, sonar)?;
+    let plan = match method {
+        Method::Exact => None,
+        Method::Fast { tol } => Some(sonar.fast_plans.get(sonar, tol)?),
+        Method::Auto { tol } => {
+            if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+                return invalid(format!("tol must be in (0, 1), got {tol:e}"));
+            }
+            if tol >= crate::fast::MIN_TOL {
+                Some(sonar.fast_plans.get(sonar, tol)?)
+            } else {
+                None
+            }
+        }
+    };
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     // Per pose: spectrum (re, im), impulse, number of counting leaves.
@@ -61,7 +115,17 @@ pub fn simulate(
         .enumerate()
         .map(|(i, pose)| {
             let mem = members(scene, sonar, pose, i, search)?;
-            let (re, im) = band_spectrum(sonar, scene, &mem);
+            let use_fast = match (&plan, method) {
+                (Some(_), Method::Fast { .. }) => true,
+                (Some(pl), Method::Auto { .. }) => {
+                    cost_fast(mem.len(), m, pl) < cost_exact(mem.len(), m)
+                }
+                _ => false,
+            };
+            let (re, im) = match (&plan, use_fast) {
+                (Some(pl), true) => fast_band_spectrum(sonar, pl, scene, &mem),
+                _ => band_spectrum(sonar, scene, &mem),
+            };
             let mut y = Vec::new();
             if with_impulse {
                 y = vec![0.0; n];

@@ -106,6 +106,19 @@ pub fn round_half_up(x: f64) -> f64 {
     (x + 0.5).floor()
 }
 
+/// Wavenumber (rad/m) at the fractional band-bin position `x` (bin `k0 + x`).
+fn band_wavenumber_at(p: &SonarParams, k0: usize, x: f64) -> f64 {
+    2.0 * PI * ((k0 as f64 + x) * p.fs / p.n_samples as f64) / p.sound_speed
+}
+
+/// Absorption in nepers per metre of range at the fractional band-bin position `x`.
+fn band_atten_at(p: &SonarParams, k0: usize, x: f64) -> f64 {
+    p.atmosphere.map_or(0.0, |a| {
+        a.alpha_db_per_m((k0 as f64 + x) * p.fs / p.n_samples as f64) * std::f64::consts::LN_10
+            / 10.0
+    })
+}
+
 /// A validated sonar with its derived tables.
 #[derive(Clone, Debug)]
 pub struct Sonar {
@@ -128,6 +141,8 @@ pub struct Sonar {
     pub atten_per_m: Vec<f64>,
     /// Per-bin tables of the spectrum kernel.
     pub tables: BandTables,
+    /// Fast-path plans by tolerance (built on first use).
+    pub fast_plans: crate::fast::PlanCache,
 }
 
 impl Sonar {
@@ -257,22 +272,20 @@ impl Sonar {
                 .collect(),
             None => Vec::new(),
         };
-        let (fs, nf, v) = (p.fs, n as f64, p.sound_speed);
-        let freq_at = move |x: f64| (k0 as f64 + x) * fs / nf;
-        let atm = p.atmosphere;
-        let atten_at = move |x: f64| {
-            atm.map_or(0.0, |a| {
-                a.alpha_db_per_m(freq_at(x)) * std::f64::consts::LN_10 / 10.0
-            })
-        };
+        let atten_at = |x: f64| band_atten_at(&params, k0, x);
         let tables = BandTables::new(
             k0,
             &wavenumbers,
             &atten_per_m,
-            move |x| 2.0 * PI * freq_at(x) / v,
-            if atm.is_some() { Some(&atten_at) } else { None },
+            |x| band_wavenumber_at(&params, k0, x),
+            if params.atmosphere.is_some() {
+                Some(&atten_at)
+            } else {
+                None
+            },
         );
         Ok(Sonar {
+            fast_plans: Default::default(),
             tables,
             params,
             k0,
@@ -285,6 +298,16 @@ impl Sonar {
             range_limit,
             atten_per_m,
         })
+    }
+
+    /// Wavenumber (rad/m) at the fractional band-bin position `x` (bin `k0 + x`).
+    pub fn wavenumber_at(&self, x: f64) -> f64 {
+        band_wavenumber_at(&self.params, self.k0, x)
+    }
+
+    /// Absorption (nepers per metre of range, two-way) at band-bin position `x`; 0 when off.
+    pub fn atten_at(&self, x: f64) -> f64 {
+        band_atten_at(&self.params, self.k0, x)
     }
 
     /// Number of band bins M.

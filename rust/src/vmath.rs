@@ -2,7 +2,7 @@
 //! block of lanes vectorises (no calls, no branches on data). Each holds on a stated domain
 //! to about 1e-16 absolute error; tests compare them with libm.
 
-use crate::erf_table::{ERF_DEGREE, ERF_INTERVALS, ERF_TAYLOR, ERF_WIDTH};
+use crate::erf_table::{ERFCX_CHEB, ERF_DEGREE, ERF_INTERVALS, ERF_TAYLOR, ERF_WIDTH};
 
 const PIO2_HI: f64 = std::f64::consts::FRAC_PI_2; // pi/2 rounded to f64
 const PIO2_LO: f64 = 6.123_233_995_736_766e-17; // pi/2 - PIO2_HI
@@ -142,6 +142,102 @@ pub fn erf(z: f64) -> f64 {
     erf_in(erf_interval(z), z)
 }
 
+/// `erf(z)` for any finite z, with the table row chosen per lane (a gather), for blocks whose
+/// lanes do not share an interval.
+#[inline(always)]
+pub fn erf_lanes<const L: usize>(z: &[f64; L]) -> [f64; L] {
+    let mut a = [0.0; L];
+    let mut u = [0.0; L];
+    let mut idx = [0usize; L];
+    for i in 0..L {
+        a[i] = z[i].abs().min(ERF_WIDTH * (ERF_INTERVALS as f64 + 1.0));
+        let t = (a[i] * (1.0 / ERF_WIDTH)).min(ERF_INTERVALS as f64);
+        idx[i] = (t as usize).min(ERF_INTERVALS); // provably in bounds: no panic path
+        u[i] = a[i] - (idx[i] as f64 + 0.5) * ERF_WIDTH;
+    }
+    let mut p = [0.0; L];
+    for i in 0..L {
+        p[i] = ERF_TAYLOR[idx[i]][ERF_DEGREE];
+    }
+    for k in (0..ERF_DEGREE).rev() {
+        for i in 0..L {
+            p[i] = p[i].mul_add(u[i], ERF_TAYLOR[idx[i]][k]);
+        }
+    }
+    let mut out = [0.0; L];
+    for i in 0..L {
+        out[i] = p[i].copysign(z[i]);
+    }
+    out
+}
+
+/// `erf(z)` for any finite z without table lookups (for lanes with unrelated arguments):
+/// `1 - exp(-z^2) erfcx(|z|)`, erfcx by its Chebyshev series on [0, 6] (Clenshaw), erf = 1
+/// beyond 6. Absolute error about 3e-16.
+#[inline(always)]
+pub fn erf_cheb(z: f64) -> f64 {
+    let a = z.abs().min(6.0);
+    let t = a * (1.0 / 3.0) - 1.0;
+    let t2 = 2.0 * t;
+    let (mut b1, mut b2) = (0.0f64, 0.0f64);
+    for &c in ERFCX_CHEB[1..].iter().rev() {
+        let b0 = t2.mul_add(b1, c - b2);
+        b2 = b1;
+        b1 = b0;
+    }
+    let erfcx = t.mul_add(b1, ERFCX_CHEB[0] - b2);
+    let e = 1.0 - exp_nonpos(-(a * a)) * erfcx;
+    let e = if z.abs() >= 6.0 { 1.0 } else { e };
+    e.copysign(z)
+}
+
+/// [`erf_cheb`] over a whole slice, coefficient loop outermost: every element is an
+/// independent recurrence, so the loop is throughput-bound rather than latency-bound.
+#[inline(always)]
+pub fn erf_cheb_slice<const N: usize>(z: &[f64; N], out: &mut [f64; N]) {
+    let mut t = [0.0; N];
+    let mut b1 = [0.0; N];
+    let mut b2 = [0.0; N];
+    for j in 0..N {
+        t[j] = z[j].abs().min(6.0) * (1.0 / 3.0) - 1.0;
+    }
+    for &c in ERFCX_CHEB[1..].iter().rev() {
+        for j in 0..N {
+            let b0 = (2.0 * t[j]).mul_add(b1[j], c - b2[j]);
+            b2[j] = b1[j];
+            b1[j] = b0;
+        }
+    }
+    for j in 0..N {
+        let a = z[j].abs().min(6.0);
+        let erfcx = t[j].mul_add(b1[j], ERFCX_CHEB[0] - b2[j]);
+        let e = 1.0 - exp_nonpos(-(a * a)) * erfcx;
+        let e = if z[j].abs() >= 6.0 { 1.0 } else { e };
+        out[j] = e.copysign(z[j]);
+    }
+}
+
+/// `(cos 2 pi t, -sin 2 pi t)` for `t` in [-0.5, 0.5] cycles, branch-free: quarter turns
+/// `n = round(4t)` and the Taylor series of sin and cos on `|2 pi (t - n/4)| <= pi/4`.
+#[inline(always)]
+pub fn cis_neg_cycles(t: f64) -> (f64, f64) {
+    let n = (4.0 * t).round_ties_even();
+    let y = (t - 0.25 * n) * (2.0 * std::f64::consts::PI);
+    let (s, c) = sincos_unit(y);
+    // rotate (c, s) by n quarter turns: n mod 4 = 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c)
+    let q = (n + 4.0) % 4.0;
+    let (cr, sr) = if q == 0.0 {
+        (c, s)
+    } else if q == 1.0 {
+        (-s, c)
+    } else if q == 2.0 {
+        (-c, -s)
+    } else {
+        (s, -c)
+    };
+    (cr, -sr)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,6 +253,35 @@ mod tests {
             worst = worst.max((erf(z) - libm::erf(z)).abs());
         }
         assert!(worst <= 3e-16, "max |erf - libm::erf| = {worst:e}");
+    }
+
+    #[test]
+    fn erf_cheb_matches_libm_to_4e_16() {
+        let mut worst: f64 = 0.0;
+        for z in grid(-7.0, 7.0, 700_001) {
+            worst = worst.max((erf_cheb(z) - libm::erf(z)).abs());
+        }
+        assert!(worst <= 4e-16, "max |erf_cheb - libm::erf| = {worst:e}");
+    }
+
+    #[test]
+    fn erf_lanes_matches_erf() {
+        let z: [f64; 8] = [-7.0, -1.3, -0.1, 0.0, 0.24, 2.6, 5.99, 1e300];
+        let e = erf_lanes(&z);
+        for i in 0..8 {
+            assert_eq!(e[i], erf(z[i]));
+        }
+    }
+
+    #[test]
+    fn cis_neg_cycles_matches_libm() {
+        let mut worst: f64 = 0.0;
+        for t in grid(-0.5, 0.5, 200_000) {
+            let (c, s) = cis_neg_cycles(t);
+            let a = 2.0 * std::f64::consts::PI * t;
+            worst = worst.max((c - a.cos()).abs()).max((s + a.sin()).abs());
+        }
+        assert!(worst <= 4e-16, "{worst:e}");
     }
 
     #[test]

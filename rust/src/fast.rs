@@ -1,0 +1,696 @@
+//! The fast spectrum (`method = "fast"`): a type-1 NUFFT in the round-trip delays, with each
+//! leaf's smooth frequency factor interpolated across the band.
+//!
+//! With `f_k = (k0 + m) fs / n` and `q_i = fs 2 r_i / (n v)` (delay in cycles per bin), a leaf's
+//! term is `F_i(m) exp(-2 pi j (k0 + m) q_i)`. The factor `F_i` (beampattern, leaf model, 1/k,
+//! absorption) is analytic across the band for all but kinked leaves, so it is replaced by its
+//! polynomial interpolant through `P` Chebyshev nodes of the band: `F_i(m) = sum_q F_i(t_q)
+//! l_q(t_m)` (Lagrange basis). Then
+//!
+//! `Y_m = w_m sum_q l_q(t_m) U_q(m - m_c)`,
+//! `U_q(k) = sum_i [F_i(t_q) exp(-2 pi j (k0 + m_c) q_i)] exp(-2 pi j k frac(q_i))`,
+//!
+//! `P` type-1 NUFFTs that share their points, so each leaf's kernel weights are computed once
+//! and reused for every channel. The error budget: the interpolation error of each leaf and the
+//! NUFFT error are each held to `tol / 5`. A leaf whose last Chebyshev coefficient says its
+//! interpolant may err more (kinked leaves, where `cos(B(c) beta)` crosses zero in the band;
+//! physical-optics leaves with diffraction nulls in the band) is summed exactly instead.
+
+use crate::error::{invalid, Result};
+use crate::kernel::{
+    self, cis_neg, lanes, paper_factor, paper_regime, NodeTables, PaperLeaf, PaperRegime, LANES,
+};
+use crate::leaf_model;
+use crate::leaf_model::{
+    PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1, PAPER_BETA_REF, PAPER_P0, PAPER_P1, PAPER_PSI0,
+};
+use crate::lobe::Member;
+use crate::nufft::{Type1Plan, MAX_W};
+use crate::phase::CyclesPerBin;
+use crate::scene::Scene;
+use crate::sonar::{LeafModel, Sonar};
+use crate::spectrum::{leaf_term, LeafTerm};
+use crate::vmath::{cis_neg_cycles, cos_0_pi, erf_cheb, exp_nonpos, sincos_unit};
+use multiversion::multiversion;
+use rayon::prelude::*;
+use rustfft::num_complex::Complex64;
+use std::f64::consts::PI;
+
+/// First positive zero of the Bessel function J1.
+const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
+
+/// Largest number of interpolation nodes.
+pub const MAX_NODES: usize = 16;
+/// Leaves per parallel task (each task spreads into its own grid; grids are added in order).
+pub const FAST_CHUNK: usize = 16_384;
+/// The tightest tolerance the fast path accepts (the interpolants' floor is ~2e-14).
+pub const MIN_TOL: f64 = 1e-13;
+
+/// Worst-case Chebyshev coefficient `|c_p| / max|F|` of the paper model's leaf factor over the
+/// 60-80 kHz band, measured over radii 0.45 mm - 30 cm, all kink-free incidence angles, with and
+/// without absorption (decay ~10x per degree).
+const WORST_CHEB: [f64; 17] = [
+    1.0, 4.8e-1, 2.2e-1, 5.3e-2, 1.0e-2, 1.6e-3, 2.1e-4, 2.5e-5, 2.8e-6, 2.9e-7, 2.9e-8, 2.7e-9,
+    2.3e-10, 2.0e-11, 1.5e-12, 1.1e-13, 1.7e-14,
+];
+
+/// Number of Chebyshev nodes for a tolerance: the last coefficient of the worst leaf is at
+/// most `2 tol` (its interpolation error, about a tenth of that, stays below `tol / 5`).
+pub fn nodes_for_tol(tol: f64) -> usize {
+    (2..=MAX_NODES)
+        .find(|&p| WORST_CHEB[p - 1] <= 2.0 * tol)
+        .unwrap_or(MAX_NODES)
+}
+
+/// Everything the fast path needs for one sonar and tolerance.
+pub struct FastPlan {
+    pub tol: f64,
+    /// Number of Chebyshev nodes (channels).
+    pub p: usize,
+    /// Tables at the nodes (band-bin positions), padded to a multiple of `LANES`.
+    nodes: NodeTables,
+    /// `c_{P-1} = sum_q cheb_last[q] F_q`.
+    cheb_last: Vec<f64>,
+    /// `l_q(t_m)`, row-major (M, P).
+    lagrange: Vec<f64>,
+    pub nufft: Type1Plan,
+    /// `m_c = M / 2`: output mode `k` is band bin `m = k + m_c`.
+    m_c: usize,
+}
+
+impl FastPlan {
+    pub fn new(sonar: &Sonar, tol: f64) -> Result<FastPlan> {
+        if !(MIN_TOL..1.0).contains(&tol) {
+            return invalid(format!(
+                "tol must be in [{MIN_TOL:e}, 1) for the fast method, got {tol:e} (use method='exact' for exact sums)"
+            ));
+        }
+        let m = sonar.n_bins();
+        let p = nodes_for_tol(tol).min(m.max(1));
+        let tn: Vec<f64> = (0..p)
+            .map(|q| ((2 * q + 1) as f64 * PI / (2 * p) as f64).cos())
+            .collect();
+        let half = (m as f64 - 1.0) / 2.0;
+        let mut node_x: Vec<f64> = tn.iter().map(|&t| half * (1.0 + t)).collect();
+        let padded = p.div_ceil(LANES) * LANES;
+        node_x.resize(padded, node_x[0]);
+        let atten = |x: f64| sonar.atten_at(x);
+        let nodes = NodeTables::at(
+            &node_x,
+            1,
+            &|x| sonar.wavenumber_at(x),
+            if sonar.params.atmosphere.is_some() {
+                Some(&atten)
+            } else {
+                None
+            },
+        );
+        let cheb = |d: usize, t: f64| (d as f64 * t.clamp(-1.0, 1.0).acos()).cos();
+        let cheb_last = tn
+            .iter()
+            .map(|&t| 2.0 / p as f64 * cheb(p - 1, t))
+            .collect();
+        let mut lagrange = Vec::with_capacity(m * p);
+        for j in 0..m {
+            let t = if m > 1 {
+                2.0 * j as f64 / (m - 1) as f64 - 1.0
+            } else {
+                0.0
+            };
+            for &tq in &tn {
+                let mut l = 1.0 / p as f64;
+                for d in 1..p {
+                    l += 2.0 / p as f64 * cheb(d, tq) * cheb(d, t);
+                }
+                lagrange.push(l);
+            }
+        }
+        let nufft = Type1Plan::new(m, tol / 5.0)?;
+        Ok(FastPlan {
+            tol,
+            p,
+            nodes,
+            cheb_last,
+            lagrange,
+            nufft,
+            m_c: m / 2,
+        })
+    }
+}
+
+/// Fast plans of one sonar, by tolerance (building one costs a few milliseconds: quadrature of
+/// the kernel's transform, FFT planning, the Lagrange table).
+#[derive(Default)]
+pub struct PlanCache(std::sync::Mutex<Vec<(u64, std::sync::Arc<FastPlan>)>>);
+
+impl Clone for PlanCache {
+    fn clone(&self) -> Self {
+        PlanCache::default()
+    }
+}
+
+impl std::fmt::Debug for PlanCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PlanCache")
+    }
+}
+
+impl PlanCache {
+    /// The plan for `tol`, built on first use.
+    pub fn get(&self, sonar: &Sonar, tol: f64) -> Result<std::sync::Arc<FastPlan>> {
+        let key = tol.to_bits();
+        if let Some((_, p)) = self
+            .0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .find(|(k, _)| *k == key)
+        {
+            return Ok(p.clone());
+        }
+        let plan = std::sync::Arc::new(FastPlan::new(sonar, tol)?);
+        let mut guard = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if guard.len() >= 8 {
+            guard.remove(0);
+        }
+        guard.push((key, plan.clone()));
+        Ok(plan)
+    }
+}
+
+/// How one leaf enters the fast sum.
+enum Route {
+    Skip,
+    Direct,
+    Spread,
+}
+
+/// The leaf factor at the nodes, into `fr`, `fi` (length >= P padded); decides the route.
+#[inline(always)]
+fn node_values(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    t: &LeafTerm,
+    fr: &mut [f64; MAX_NODES],
+    fi: &mut [f64; MAX_NODES],
+) -> Route {
+    let nt = &plan.nodes;
+    let p = plan.p;
+    match sonar.params.leaf_model {
+        LeafModel::Paper => {
+            match paper_regime(&sonar.tables, t) {
+                PaperRegime::Zero => return Route::Skip,
+                PaperRegime::Smooth => {}
+                PaperRegime::Kinked | PaperRegime::OutOfDomain => return Route::Direct,
+            }
+            let lf = PaperLeaf::new(t);
+            let atten_on = !nt.atten.is_empty();
+            for q0 in (0..nt.k.len()).step_by(LANES) {
+                let (mut r, mut i) = ([0.0; LANES], [0.0; LANES]);
+                let atten = if atten_on {
+                    &nt.atten[q0..q0 + LANES]
+                } else {
+                    &[][..]
+                };
+                let args = (
+                    lanes(&nt.k, q0),
+                    lanes(&nt.inv_k, q0),
+                    lanes(&nt.kp, q0),
+                    lanes(&nt.kq, q0),
+                );
+                if atten_on {
+                    paper_factor::<true>(
+                        &lf, args.0, args.1, args.2, args.3, atten, &mut r, &mut i,
+                    );
+                } else {
+                    paper_factor::<false>(
+                        &lf, args.0, args.1, args.2, args.3, atten, &mut r, &mut i,
+                    );
+                }
+                fr[q0..q0 + LANES].copy_from_slice(&r);
+                fi[q0..q0 + LANES].copy_from_slice(&i);
+            }
+        }
+        LeafModel::PhysicalOptics => {
+            // |2 J1(x)/x| is analytic and bell-shaped only before J1's first zero (x = 3.8317);
+            // past it the factor has kinks and oscillates across the band: sum such leaves exactly.
+            let x_hi = 2.0 * sonar.tables.k[sonar.tables.m - 1] * t.radius * t.beta.sin();
+            if !(x_hi < J1_FIRST_ZERO) {
+                return Route::Direct;
+            }
+            for q in 0..p {
+                let k = nt.k[q];
+                let (l, psi) = leaf_model::physical_optics(k * t.radius, t.beta);
+                let mut amp = t.amp * l / k;
+                if !nt.atten.is_empty() {
+                    amp *= (-nt.atten[q] * t.range).exp();
+                }
+                let (s, c) = (-psi).sin_cos();
+                fr[q] = amp * c;
+                fi[q] = amp * s;
+            }
+        }
+    }
+    let mut peak = 0.0f64;
+    let (mut lr, mut li) = (0.0, 0.0);
+    for q in 0..p {
+        peak = peak.max(fr[q].abs()).max(fi[q].abs());
+        lr = plan.cheb_last[q].mul_add(fr[q], lr);
+        li = plan.cheb_last[q].mul_add(fi[q], li);
+    }
+    if peak == 0.0 {
+        return Route::Skip;
+    }
+    if !(lr.abs().max(li.abs()) <= 2.0 * plan.tol * peak) {
+        return Route::Direct;
+    }
+    Route::Spread
+}
+
+/// One task's share: spread grids (P channels, interleaved re/im) and the exactly summed leaves.
+struct Partial {
+    grid: Vec<f64>,
+    direct: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+/// Leaves per vector batch of the fast path.
+const LB: usize = 8;
+
+/// Spread one leaf: strengths `s_q` (one per channel) times the kernel weights `wd` (each
+/// duplicated for re and im, zero past the kernel's width) onto `WS` complex grid points of
+/// every channel from index `l0`. Fixed width, so the inner loop is whole vectors.
+#[inline(always)]
+fn spread_fixed<const WS: usize>(
+    grid: &mut [f64],
+    glen: usize,
+    p: usize,
+    l0: usize,
+    wd: &[f64; 2 * MAX_W],
+    s: &[(f64, f64)],
+) {
+    for (c, &(sr, si)) in s.iter().enumerate().take(p) {
+        let start = 2 * (c * glen + l0);
+        let row: &mut [f64] = &mut grid[start..start + 2 * WS];
+        for j in 0..2 * WS {
+            let sv = if j % 2 == 0 { sr } else { si };
+            row[j] = wd[j].mul_add(sv, row[j]);
+        }
+    }
+}
+
+/// [`spread_fixed`] at the plan's kernel width rounded up to whole vectors of 4 complex.
+#[inline(always)]
+fn spread_one(
+    grid: &mut [f64],
+    glen: usize,
+    p: usize,
+    w: usize,
+    l0: usize,
+    wd: &[f64; 2 * MAX_W],
+    s: &[(f64, f64)],
+) {
+    match w {
+        0..=4 => spread_fixed::<4>(grid, glen, p, l0, wd, s),
+        5..=8 => spread_fixed::<8>(grid, glen, p, l0, wd, s),
+        9..=12 => spread_fixed::<12>(grid, glen, p, l0, wd, s),
+        _ => spread_fixed::<16>(grid, glen, p, l0, wd, s),
+    }
+}
+
+/// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
+/// leaves (lanes), then the spreading; leaves failing the smoothness check go to `direct`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn paper_batch<const ATTEN: bool>(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    batch: &[&LeafTerm],
+    grid: &mut [f64],
+    direct: &mut Vec<usize>,
+    batch_ids: &[usize],
+) {
+    let nt = &plan.nodes;
+    let (p, w, glen) = (plan.p, plan.nufft.w, plan.nufft.grid_len());
+    let sp = &sonar.params;
+    let n = batch.len();
+    let lane = |f: &dyn Fn(&LeafTerm) -> f64| -> [f64; LB] {
+        std::array::from_fn(|i| f(batch[i.min(n - 1)]))
+    };
+    let (amp, range, beta, a) = (
+        lane(&|t| t.amp),
+        lane(&|t| t.range),
+        lane(&|t| t.beta),
+        lane(&|t| t.radius),
+    );
+    let (ap, aq) = (lane(&|t| t.radius_pow_b), lane(&|t| t.radius_pow_p));
+    let (h0r, h0i) = (PAPER_PSI0.cos(), -PAPER_PSI0.sin());
+    // Leaf factor at every node, lanes = leaves.
+    let mut fr = [[0.0; LB]; MAX_NODES];
+    let mut fi = [[0.0; LB]; MAX_NODES];
+    for q in 0..p {
+        let (k, inv_k, kp, kq) = (nt.k[q], nt.inv_k[q], nt.kp[q], nt.kq[q]);
+        let mut zz = [0.0; LB];
+        for i in 0..LB {
+            zz[i] = PAPER_P1.mul_add(kq * aq[i], PAPER_P0) * (PAPER_BETA_REF - beta[i]);
+        }
+        let mut e = [0.0; LB];
+        for i in 0..LB {
+            e[i] = erf_cheb(zz[i]);
+        }
+        for i in 0..LB {
+            let c = k * a[i];
+            let ac = (PAPER_A2 * c).mul_add(c, PAPER_A0);
+            let bc = PAPER_B1.mul_add(kp * ap[i], PAPER_B0);
+            let l = (ac * cos_0_pi(bc * beta[i])).max(0.0);
+            let (se, ce) = sincos_unit(e[i]);
+            let hr = h0r.mul_add(ce, h0i * se);
+            let hi = h0i.mul_add(ce, -h0r * se);
+            let mut am = amp[i] * l * inv_k;
+            if ATTEN {
+                am *= exp_nonpos(-nt.atten[q] * range[i]);
+            }
+            fr[q][i] = am * hr;
+            fi[q][i] = am * hi;
+        }
+    }
+    // Smoothness check per lane: the last Chebyshev coefficient against the lane's peak.
+    let mut ok = [true; LB];
+    {
+        let (mut lr, mut li, mut peak) = ([0.0; LB], [0.0; LB], [0.0f64; LB]);
+        for q in 0..p {
+            for i in 0..LB {
+                lr[i] = plan.cheb_last[q].mul_add(fr[q][i], lr[i]);
+                li[i] = plan.cheb_last[q].mul_add(fi[q][i], li[i]);
+                peak[i] = peak[i].max(fr[q][i].abs()).max(fi[q][i].abs());
+            }
+        }
+        for i in 0..LB {
+            ok[i] = lr[i].abs().max(li[i].abs()) <= 2.0 * plan.tol * peak[i];
+        }
+    }
+    // Phases and grid positions from the exactly reduced delay, lanes = leaves.
+    let (mut x, mut pr, mut pi) = ([0.0; LB], [0.0; LB], [0.0; LB]);
+    let shift = sonar.tables.k0 + plan.m_c as f64;
+    for i in 0..LB {
+        let cq = CyclesPerBin::new(range[i], sp.fs, sp.n_samples, sp.sound_speed);
+        let f = cq.frac_at(1.0);
+        x[i] = if f < 0.0 { f + 1.0 } else { f };
+        (pr[i], pi[i]) = cis_neg_cycles(cq.frac_at(shift));
+    }
+    // Kernel weights, lanes = leaves.
+    let nf = plan.nufft.nf as f64;
+    let (beta_k, scale) = (plan.nufft.beta, 2.0 / w as f64);
+    let mut l0f = [0.0; LB];
+    let mut xs = [0.0; LB];
+    for i in 0..LB {
+        xs[i] = x[i] * nf;
+        l0f[i] = (xs[i] - w as f64 / 2.0).ceil();
+    }
+    let mut wts = [[0.0; LB]; MAX_W];
+    for (j, wj) in wts.iter_mut().enumerate().take(w) {
+        for i in 0..LB {
+            let z = (l0f[i] + j as f64 - xs[i]) * scale;
+            let zz = z * z;
+            let v = exp_nonpos(beta_k * ((1.0 - zz).max(0.0).sqrt() - 1.0));
+            wj[i] = if zz <= 1.0 { v } else { 0.0 };
+        }
+    }
+    // Spread each lane (weights past the kernel's width stay zero).
+    let mut wd = [0.0; 2 * MAX_W];
+    let mut st = [(0.0, 0.0); MAX_NODES];
+    for i in 0..n {
+        if !ok[i] {
+            direct.push(batch_ids[i]);
+            continue;
+        }
+        for j in 0..w {
+            wd[2 * j] = wts[j][i];
+            wd[2 * j + 1] = wts[j][i];
+        }
+        for q in 0..p {
+            st[q] = (
+                fr[q][i] * pr[i] - fi[q][i] * pi[i],
+                fr[q][i] * pi[i] + fi[q][i] * pr[i],
+            );
+        }
+        let l0 = (l0f[i] as i64 + plan.nufft.pad as i64) as usize;
+        spread_one(grid, glen, p, w, l0, &wd, &st);
+    }
+}
+
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
+    let (p, glen, w) = (plan.p, plan.nufft.grid_len(), plan.nufft.w);
+    let mut grid = vec![0.0; 2 * p * glen];
+    let mut direct_ids: Vec<usize> = Vec::new();
+    let sp = &sonar.params;
+    match sp.leaf_model {
+        LeafModel::Paper => {
+            // Route by regime; smooth leaves go through the vector batches.
+            let mut batch: Vec<&LeafTerm> = Vec::with_capacity(LB);
+            let mut ids: Vec<usize> = Vec::with_capacity(LB);
+            let atten = !plan.nodes.atten.is_empty();
+            let flush = |batch: &mut Vec<&LeafTerm>,
+                         ids: &mut Vec<usize>,
+                         grid: &mut [f64],
+                         direct: &mut Vec<usize>| {
+                if batch.is_empty() {
+                    return;
+                }
+                if atten {
+                    paper_batch::<true>(sonar, plan, batch, grid, direct, ids);
+                } else {
+                    paper_batch::<false>(sonar, plan, batch, grid, direct, ids);
+                }
+                batch.clear();
+                ids.clear();
+            };
+            for (idx, t) in terms.iter().enumerate() {
+                match paper_regime(&sonar.tables, t) {
+                    PaperRegime::Zero => {}
+                    PaperRegime::Smooth => {
+                        batch.push(t);
+                        ids.push(idx);
+                        if batch.len() == LB {
+                            flush(&mut batch, &mut ids, &mut grid, &mut direct_ids);
+                        }
+                    }
+                    PaperRegime::Kinked | PaperRegime::OutOfDomain => direct_ids.push(idx),
+                }
+            }
+            flush(&mut batch, &mut ids, &mut grid, &mut direct_ids);
+        }
+        LeafModel::PhysicalOptics => {
+            let (mut fr, mut fi) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
+            let mut wts = [0.0; MAX_W];
+            let mut wd = [0.0; 2 * MAX_W];
+            let mut st = [(0.0, 0.0); MAX_NODES];
+            for (idx, t) in terms.iter().enumerate() {
+                match node_values(sonar, plan, t, &mut fr, &mut fi) {
+                    Route::Skip => {}
+                    Route::Direct => direct_ids.push(idx),
+                    Route::Spread => {
+                        let q = CyclesPerBin::new(t.range, sp.fs, sp.n_samples, sp.sound_speed);
+                        let mut x = q.frac_at(1.0);
+                        if x < 0.0 {
+                            x += 1.0;
+                        }
+                        let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
+                        let l0 = plan.nufft.weights(x, &mut wts);
+                        for j in 0..w {
+                            wd[2 * j] = wts[j];
+                            wd[2 * j + 1] = wts[j];
+                        }
+                        for c in 0..p {
+                            st[c] = (fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr);
+                        }
+                        spread_one(&mut grid, glen, p, w, l0, &wd, &st);
+                    }
+                }
+            }
+        }
+    }
+    // Leaves the interpolation cannot represent to tol: summed exactly, in index order.
+    let direct = if direct_ids.is_empty() {
+        None
+    } else {
+        direct_ids.sort_unstable();
+        let m_pad = sonar.tables.m_pad;
+        let (mut re, mut im) = (vec![0.0; m_pad], vec![0.0; m_pad]);
+        for &i in &direct_ids {
+            kernel::add_leaf(sonar, &terms[i], &mut re, &mut im);
+        }
+        Some((re, im))
+    };
+    Partial { grid, direct }
+}
+
+/// The windowed band spectrum `(re, im)` of the members by the fast method.
+pub fn fast_band_spectrum(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    scene: &Scene,
+    members: &[Member],
+) -> (Vec<f64>, Vec<f64>) {
+    let terms: Vec<LeafTerm> = members
+        .iter()
+        .map(|mb| leaf_term(sonar, scene, mb))
+        .collect();
+    fast_sum_terms(sonar, plan, &terms)
+}
+
+/// The windowed band spectrum of the given leaf terms by the fast method.
+pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+    let m = sonar.n_bins();
+    let (p, glen) = (plan.p, plan.nufft.grid_len());
+    let mut grid = vec![0.0; 2 * p * glen];
+    let mut direct = (vec![0.0; sonar.tables.m_pad], vec![0.0; sonar.tables.m_pad]);
+    let mut add = |part: Partial| {
+        for (g, v) in grid.iter_mut().zip(&part.grid) {
+            *g += v;
+        }
+        if let Some((re, im)) = part.direct {
+            for j in 0..re.len() {
+                direct.0[j] += re[j];
+                direct.1[j] += im[j];
+            }
+        }
+    };
+    if terms.len() <= FAST_CHUNK {
+        add(spread_chunk(sonar, plan, terms));
+    } else {
+        for batch in terms.chunks(FAST_CHUNK * 16) {
+            let parts: Vec<Partial> = batch
+                .par_chunks(FAST_CHUNK)
+                .map(|c| spread_chunk(sonar, plan, c))
+                .collect();
+            parts.into_iter().for_each(&mut add);
+        }
+    }
+    // One NUFFT per channel, then the Lagrange combination.
+    let modes: Vec<Vec<Complex64>> = grid
+        .par_chunks(2 * glen)
+        .map(|g| {
+            let mut cg: Vec<Complex64> = g
+                .chunks_exact(2)
+                .map(|v| Complex64::new(v[0], v[1]))
+                .collect();
+            let mut out = vec![Complex64::new(0.0, 0.0); m];
+            plan.nufft.finish(&mut cg, &mut out);
+            out
+        })
+        .collect();
+    let mut re = vec![0.0; m];
+    let mut im = vec![0.0; m];
+    for j in 0..m {
+        let row = &plan.lagrange[j * p..(j + 1) * p];
+        let mut acc = Complex64::new(direct.0[j], direct.1[j]);
+        for c in 0..p {
+            acc += modes[c][j] * row[c];
+        }
+        re[j] = acc.re * sonar.window[j];
+        im[j] = acc.im * sonar.window[j];
+    }
+    (re, im)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::absorption::Atmosphere;
+    use crate::leaf_model::{PAPER_BP, PAPER_PP};
+    use crate::sonar::SonarParams;
+    use crate::spectrum::sum_terms;
+
+    fn sonar(atm: Option<Atmosphere>, model: LeafModel) -> Sonar {
+        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        p.atmosphere = atm;
+        p.leaf_model = model;
+        Sonar::new(p).unwrap()
+    }
+
+    /// Leaves of every kind: tiny to huge, normal to grazing incidence (kinked and zero-L
+    /// leaves included), near and far.
+    fn terms(n: usize) -> Vec<LeafTerm> {
+        let mut seed = 7u64;
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let radius = (0.0005f64.ln() + u() * (0.3f64.ln() - 0.0005f64.ln())).exp();
+                let range = 0.05 + u() * 10.1;
+                LeafTerm {
+                    amp: 0.2 / (range * range),
+                    range,
+                    beta: u() * std::f64::consts::FRAC_PI_2,
+                    radius,
+                    radius_pow_b: radius.powf(PAPER_BP),
+                    radius_pow_p: radius.powf(PAPER_PP),
+                }
+            })
+            .collect()
+    }
+
+    fn rel_l2(a: &(Vec<f64>, Vec<f64>), b: &(Vec<f64>, Vec<f64>)) -> f64 {
+        let num: f64 =
+            a.0.iter()
+                .zip(&b.0)
+                .chain(a.1.iter().zip(&b.1))
+                .map(|(x, y)| (x - y).powi(2))
+                .sum();
+        let den: f64 = b.0.iter().chain(&b.1).map(|y| y * y).sum();
+        (num / den).sqrt()
+    }
+
+    #[test]
+    fn fast_spectrum_is_within_tol_of_the_exact_sum() {
+        let t = terms(3000);
+        for (atm, model) in [
+            (None, LeafModel::Paper),
+            (Some(Atmosphere::default()), LeafModel::Paper),
+            (None, LeafModel::PhysicalOptics),
+        ] {
+            let s = sonar(atm, model);
+            let exact = sum_terms(&s, &t);
+            for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
+                let plan = FastPlan::new(&s, tol).unwrap();
+                let err = rel_l2(&fast_sum_terms(&s, &plan, &t), &exact);
+                assert!(
+                    err <= tol,
+                    "{model:?} atm {} tol {tol:e}: error {err:e}",
+                    atm.is_some()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn fast_spectrum_is_bit_identical_across_chunkings() {
+        // Many leaves: several parallel chunks; the result must not depend on the thread count,
+        // which only changes who computes each chunk.
+        let t = terms(FAST_CHUNK * 2 + 123);
+        let s = sonar(None, LeafModel::Paper);
+        let plan = FastPlan::new(&s, 1e-6).unwrap();
+        let a = fast_sum_terms(&s, &plan, &t);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let b = pool.install(|| fast_sum_terms(&s, &plan, &t));
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn nodes_grow_as_the_tolerance_tightens() {
+        let p: Vec<usize> = [1e-3, 1e-6, 1e-9, 1e-12]
+            .iter()
+            .map(|&t| nodes_for_tol(t))
+            .collect();
+        assert!(p.windows(2).all(|w| w[0] < w[1]), "{p:?}");
+        assert!(FastPlan::new(&sonar(None, LeafModel::Paper), 1e-14).is_err());
+    }
+}

@@ -1,0 +1,246 @@
+//! A 1-D type-1 non-uniform FFT with many channels sharing the same points:
+//! `U_q(k) = sum_i s_iq exp(-2 pi j k x_i)`, `k = -K/2 .. K - 1 - K/2`, points `x_i` in [0, 1).
+//!
+//! The method of FINUFFT (Barnett, Magland & af Klinteberg 2019): strengths are spread onto an
+//! oversampled periodic grid (`sigma = 2`) with the "exponential of semicircle" kernel
+//! `phi(z) = exp(beta (sqrt(1 - z^2) - 1))`, `|z| <= 1`, of width `w` grid points; one FFT per
+//! channel; then each mode is divided by the kernel's Fourier transform, computed by
+//! Gauss-Legendre quadrature. Width and shape come from the tolerance:
+//! `w = ceil(log10(1/eps)) + 1` and `beta = 2.30 w`. The kernel weights of a point are computed
+//! once and shared by all channels.
+
+use crate::error::{invalid, Result};
+use crate::vmath::exp_nonpos;
+use rustfft::num_complex::Complex64;
+use rustfft::{Fft, FftPlanner};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+/// Widest kernel (reached for eps <= 1e-15).
+pub const MAX_W: usize = 16;
+
+/// Gauss-Legendre nodes and weights on [-1, 1] (Newton iteration on P_n).
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut x = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 0.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, z);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            // p1 = P_n(z), p0 = P_{n-1}(z)
+            dp = n as f64 * (z * p1 - p0) / (z * z - 1.0);
+            let dz = p1 / dp;
+            z -= dz;
+            if dz.abs() < 1e-16 {
+                break;
+            }
+        }
+        x[i] = -z;
+        x[n - 1 - i] = z;
+        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
+        w[n - 1 - i] = w[i];
+    }
+    (x, w)
+}
+
+/// Smallest `n >= min` whose prime factors are 2, 3 and 5 (fast FFT sizes), and even.
+pub fn fft_size(min: usize) -> usize {
+    let mut n = min.max(2);
+    loop {
+        let mut m = n;
+        for p in [2, 3, 5] {
+            while m % p == 0 {
+                m /= p;
+            }
+        }
+        if m == 1 && n % 2 == 0 {
+            return n;
+        }
+        n += 1;
+    }
+}
+
+/// A type-1 plan for `modes` output modes at tolerance `eps`.
+pub struct Type1Plan {
+    pub modes: usize,
+    /// Oversampled grid size (even, >= 2 modes, 2-3-5 smooth).
+    pub nf: usize,
+    /// Kernel width in grid points, and its shape parameter.
+    pub w: usize,
+    pub beta: f64,
+    /// Padding on each side of a spread grid (indices may run past the ends before folding);
+    /// [`MAX_W`], so that fixed-width spreading of up to `MAX_W` points always fits.
+    pub pad: usize,
+    /// `1 / (nf Phi(k))` for the modes `k = -modes/2 ..`.
+    correction: Vec<f64>,
+    fft: Arc<dyn Fft<f64>>,
+}
+
+impl Type1Plan {
+    pub fn new(modes: usize, eps: f64) -> Result<Self> {
+        if modes == 0 {
+            return invalid("a NUFFT needs at least one mode");
+        }
+        if !(eps.is_finite() && eps > 0.0 && eps < 1.0) {
+            return invalid(format!("NUFFT tolerance must be in (0, 1), got {eps}"));
+        }
+        let w = ((1.0 / eps).log10().ceil() as usize + 1).clamp(2, MAX_W);
+        let beta = 2.30 * w as f64;
+        let nf = fft_size((2 * modes).max(2 * w));
+        // Phi(k) = (w / (2 nf)) int_{-1}^{1} phi(z) cos(pi k w z / nf) dz, with z = sin(theta)
+        // so that the integrand is smooth at the ends.
+        let (gx, gw) = gauss_legendre(2 * w + 40);
+        let half = modes / 2;
+        let correction = (0..modes)
+            .map(|i| {
+                let k = i as f64 - half as f64;
+                let mut s = 0.0;
+                for (&u, &wt) in gx.iter().zip(&gw) {
+                    let th = u * PI / 2.0;
+                    let z = th.sin();
+                    let phi = (beta * (th.cos() - 1.0)).exp();
+                    s += wt * phi * (PI * k * w as f64 * z / nf as f64).cos() * th.cos();
+                }
+                let integral = s * PI / 2.0;
+                let phi_hat = w as f64 / (2.0 * nf as f64) * integral;
+                1.0 / (nf as f64 * phi_hat)
+            })
+            .collect();
+        let fft = FftPlanner::<f64>::new().plan_fft_forward(nf);
+        Ok(Type1Plan {
+            modes,
+            nf,
+            w,
+            beta,
+            pad: MAX_W,
+            correction,
+            fft,
+        })
+    }
+
+    /// Length of one channel's spread grid (with padding).
+    pub fn grid_len(&self) -> usize {
+        self.nf + 2 * self.pad
+    }
+
+    /// Kernel weights of the point `x` in [0, 1): fills `out[..w]` and returns the padded grid
+    /// index of the first weight.
+    #[inline(always)]
+    pub fn weights(&self, x: f64, out: &mut [f64; MAX_W]) -> usize {
+        let xs = x * self.nf as f64;
+        let l0 = (xs - self.w as f64 / 2.0).ceil();
+        let scale = 2.0 / self.w as f64;
+        for (j, o) in out.iter_mut().enumerate() {
+            let z = (l0 + j as f64 - xs) * scale;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            let v = exp_nonpos(self.beta * (s - 1.0));
+            *o = if j < self.w && z * z <= 1.0 { v } else { 0.0 };
+        }
+        (l0 as i64 + self.pad as i64) as usize
+    }
+
+    /// From a spread grid of one channel (length `grid_len`, modified), the modes
+    /// `k = -modes/2 .. modes - 1 - modes/2` into `out` (length `modes`).
+    pub fn finish(&self, grid: &mut [Complex64], out: &mut [Complex64]) {
+        let (nf, pad) = (self.nf, self.pad);
+        debug_assert_eq!(grid.len(), self.grid_len());
+        // Fold the padding back onto the periodic grid.
+        for j in 0..pad {
+            let lo = grid[j];
+            grid[j + nf] += lo;
+            let hi = grid[pad + nf + j];
+            grid[pad + j] += hi;
+        }
+        let g = &mut grid[pad..pad + nf];
+        self.fft.process(g);
+        let half = self.modes / 2;
+        for (i, o) in out.iter_mut().enumerate() {
+            let k = i as i64 - half as i64;
+            let idx = k.rem_euclid(nf as i64) as usize;
+            *o = g[idx] * self.correction[i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        let (x, w) = gauss_legendre(10);
+        let int = |p: i32| x.iter().zip(&w).map(|(&x, &w)| w * x.powi(p)).sum::<f64>();
+        assert!((int(0) - 2.0).abs() < 1e-14);
+        assert!((int(18) - 2.0 / 19.0).abs() < 1e-14);
+        assert!(int(7).abs() < 1e-15);
+    }
+
+    #[test]
+    fn fft_sizes_are_smooth_and_even() {
+        assert_eq!(fft_size(2402), 2430);
+        assert_eq!(fft_size(7), 8);
+        assert_eq!(fft_size(1), 2);
+    }
+
+    fn direct(points: &[f64], strengths: &[Complex64], modes: usize) -> Vec<Complex64> {
+        let half = modes / 2;
+        (0..modes)
+            .map(|i| {
+                let k = i as f64 - half as f64;
+                points
+                    .iter()
+                    .zip(strengths)
+                    .map(|(&x, &s)| s * Complex64::from_polar(1.0, -2.0 * PI * k * x))
+                    .sum()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn type1_matches_the_direct_sum_to_its_tolerance() {
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let n = 300;
+        let points: Vec<f64> = (0..n).map(|_| rnd()).collect();
+        let strengths: Vec<Complex64> = (0..n)
+            .map(|_| Complex64::new(rnd() - 0.5, rnd() - 0.5))
+            .collect();
+        for &(modes, eps) in &[(1201usize, 1e-3), (1201, 1e-6), (200, 1e-9), (201, 1e-12)] {
+            let plan = Type1Plan::new(modes, eps).unwrap();
+            let mut grid = vec![Complex64::new(0.0, 0.0); plan.grid_len()];
+            let mut wts = [0.0; MAX_W];
+            for (&x, &s) in points.iter().zip(&strengths) {
+                let l0 = plan.weights(x, &mut wts);
+                for j in 0..plan.w {
+                    grid[l0 + j] += s * wts[j];
+                }
+            }
+            let mut out = vec![Complex64::new(0.0, 0.0); modes];
+            plan.finish(&mut grid, &mut out);
+            let want = direct(&points, &strengths, modes);
+            let num: f64 = out
+                .iter()
+                .zip(&want)
+                .map(|(a, b)| (a - b).norm_sqr())
+                .sum::<f64>()
+                .sqrt();
+            let den: f64 = want.iter().map(|b| b.norm_sqr()).sum::<f64>().sqrt();
+            assert!(
+                num / den < eps * 2.0,
+                "modes {modes} eps {eps}: rel err {:e}",
+                num / den
+            );
+        }
+    }
+}
