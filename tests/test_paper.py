@@ -1,0 +1,196 @@
+"""The paper's experiments: empty lobes are silent, Table 1's grid and report, the figures."""
+
+from __future__ import annotations
+
+import json
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+
+import batecho
+from batecho.examples import canonical_leaf_box
+from batecho.paper import (
+    PAPER_TABLE1,
+    Table1Result,
+    draw_tree_positions,
+    forest_available,
+    make_forest,
+    paper_figures,
+    table1,
+)
+
+needs_forest = pytest.mark.skipif(
+    not forest_available(),
+    reason="batecho.trees / batecho.forest are not in this checkout yet: the paper's tree "
+    "scenes cannot be grown",
+)
+
+
+# ---------------------------------------------------------------- empty and full lobes
+
+
+@pytest.fixture(scope="module")
+def box_scene():
+    return batecho.Scene(canonical_leaf_box(np.random.default_rng(3), density_per_m3=10.0))
+
+
+def test_empty_lobe_gives_an_exactly_zero_echo_leaf_box(box_scene):
+    sonar = batecho.Sonar(beamwidth_deg=10)
+    pose = batecho.Poses([5.5, 0.0, 5.0], [0.0, 1.0, 0.0])  # above the box, looking sideways
+    assert len(batecho.lobe_members(box_scene, sonar, pose)) == 0
+    e = batecho.simulate(box_scene, sonar, pose)
+    assert e.n_leaves[0] == 0 and np.all(e.impulse == 0.0) and np.all(e.spectrum == 0.0)
+
+
+def test_pose_facing_the_leaves_gives_a_nonzero_echo_leaf_box(box_scene):
+    sonar = batecho.Sonar(beamwidth_deg=10)
+    pose = batecho.Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    e = batecho.simulate(box_scene, sonar, pose)
+    assert e.n_leaves[0] > 0 and np.any(e.impulse != 0.0)
+
+
+@pytest.fixture(scope="module")
+def one_tree():
+    forest = make_forest([[0.0, 0.0]], np.random.default_rng(11))
+    return forest, batecho.Scene(forest.leaves)
+
+
+@needs_forest
+def test_empty_lobe_gives_an_exactly_zero_echo_tree(one_tree):
+    _, scene = one_tree
+    sonar = batecho.Sonar(beamwidth_deg=10)
+    # On the paper's circle, looking along the path (tangent): past the crown.
+    poses = batecho.circle((0.0, 0.0), 6.2, 5.0, n_points=24, heading="velocity")
+    e = batecho.simulate(scene, sonar, poses)
+    silent = e.n_leaves == 0
+    assert silent.any()
+    assert np.all(e.impulse[silent] == 0.0)
+
+
+@needs_forest
+def test_pose_facing_the_crown_gives_a_nonzero_echo_tree(one_tree):
+    forest, scene = one_tree
+    crown = forest.leaves.centers.mean(axis=0)
+    pose = batecho.look_at([6.2, 0.0, 5.0], crown)
+    sonar = batecho.Sonar(beamwidth_deg=20, too_close="skip")
+    e = batecho.simulate(scene, sonar, pose)
+    members = batecho.lobe_members(scene, sonar, pose)
+    assert e.n_leaves[0] == len(members) > 0 and np.any(e.impulse[0] != 0.0)
+
+
+# --------------------------------------------------------------------- tree positions
+
+
+def test_draw_tree_positions_gives_exactly_n_trees_in_the_window():
+    pos = draw_tree_positions(4, np.random.default_rng(1))
+    assert pos.shape == (4, 2)
+    assert np.all((pos >= 0.0) & (pos <= 20.0))
+
+
+def test_draw_tree_positions_is_reproducible():
+    a = draw_tree_positions(3, np.random.default_rng(9))
+    b = draw_tree_positions(3, np.random.default_rng(9))
+    np.testing.assert_array_equal(a, b)
+
+
+def test_draw_tree_positions_only_where_the_intensity_is_positive():
+    lam = lambda x, y: np.where(x > 15.0, 0.05, 0.0)
+    pos = draw_tree_positions(30, np.random.default_rng(2), intensity=lam)
+    assert np.all(pos[:, 0] > 15.0)
+
+
+def test_draw_tree_positions_rejects_zero_trees():
+    with pytest.raises(ValueError, match="n_trees"):
+        draw_tree_positions(0, np.random.default_rng(0))
+
+
+# --------------------------------------------------------------------------- Table 1
+
+
+def _fake_result() -> Table1Result:
+    P, T, R = 2, 2, 1
+    return Table1Result(
+        points=(1, 15),
+        trees=(1, 2),
+        repeats=R,
+        times_s=np.full((P, T, R), 0.01234),
+        build_times_s=np.full((T, R), 0.001),
+        grow_times_s=np.full((T, R), 0.2),
+        n_leaves_scene=np.full((T, R), 20000),
+        n_leaves_lobe=np.full((P, T, R), 3000),
+        settings={"seed": 5, "sonar": {"beamwidth_deg": 50.0}, "heading": "center"},
+    )
+
+
+def test_table1_markdown_puts_the_papers_figures_beside_ours():
+    md = _fake_result().to_markdown()
+    for p in (1, 15):
+        row = next(line for line in md.splitlines() if line.startswith(f"| {p} | 0.0123"))
+        for t in (1, 2):
+            assert f"({PAPER_TABLE1[p][t - 1]:.2f};" in row
+
+
+def test_table1_markdown_states_how_to_rerun_it():
+    md = _fake_result().to_markdown()
+    assert "batecho paper table1 --points 1,15 --trees 1,2 --repeats 1 --seed 5" in md
+
+
+def test_table1_npz_keeps_the_settings(tmp_path):
+    path = _fake_result().to_npz(tmp_path / "t1.npz")
+    with np.load(path) as z:
+        assert json.loads(str(z["settings_json"]))["seed"] == 5
+        assert z["paper_times_s"][1, 1] == PAPER_TABLE1[15][1]
+
+
+@pytest.fixture(scope="module")
+def small_table():
+    return table1(points=(1, 5), trees=(1, 2), seed=3, repeats=1, timing_runs=1)
+
+
+@needs_forest
+def test_table1_has_the_requested_grid(small_table):
+    r = small_table
+    assert r.points == (1, 5) and r.trees == (1, 2)
+    assert r.times_s.shape == (2, 2, 1) and r.n_leaves_lobe.shape == (2, 2, 1)
+    assert r.n_leaves_scene.shape == (2, 1) and r.build_times_s.shape == (2, 1)
+
+
+@needs_forest
+def test_table1_times_and_leaf_counts_are_positive(small_table):
+    r = small_table
+    assert np.all(r.times_s > 0) and np.all(r.build_times_s > 0)
+    assert np.all(r.n_leaves_scene > 0) and np.all(r.n_leaves_lobe > 0)
+
+
+@needs_forest
+def test_table1_forest_depends_on_seed_and_tree_count_only():
+    a = table1(points=(1,), trees=(2,), seed=3, repeats=1, timing_runs=1)
+    b = table1(points=(5, 1), trees=(1, 2), seed=3, repeats=1, timing_runs=1)
+    assert a.n_leaves_scene[0, 0] == b.n_leaves_scene[1, 0]
+    assert a.n_leaves_lobe[0, 0, 0] == b.n_leaves_lobe[1, 1, 0]
+
+
+@needs_forest
+def test_table1_records_the_machine_and_the_tree_model(small_table):
+    s = small_table.settings
+    assert s["machine"]["cpu_count"] >= 1 and s["tree"]["function"].startswith("batecho.trees.")
+
+
+# --------------------------------------------------------------------------- figures
+
+
+@needs_forest
+def test_paper_figures_writes_decodable_pngs_and_data(tmp_path):
+    written = paper_figures(tmp_path, seed=4, echo_pulses=12, dpi=50)
+    pngs = [p for p in written.values() if p.suffix == ".png"]
+    assert {"fig05", "fig06", "fig07", "fig08", "fig09", "fig10"} <= set(written)
+    for p in pngs:
+        assert p.stat().st_size > 0 and plt.imread(p).ndim == 3
+    with np.load(written["data"]) as z:
+        assert not np.any(z["fig05_impulse"])  # the empty lobe: exactly zero
+        assert np.all(z["fig09_n_leaves"] >= 0) and z["fig09_impulses"].shape[0] == 4

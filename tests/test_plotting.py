@@ -1,0 +1,206 @@
+"""Plot functions return Figures and write PNG files that matplotlib can read back."""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+import batecho
+from batecho.examples import canonical_leaf_box
+from batecho.paper import forest_available
+from batecho.plotting import (
+    lobe_surface,
+    plot_echo_image,
+    plot_impulse,
+    plot_impulses,
+    plot_scene_3d,
+    plot_spectrogram,
+    plot_spectrum,
+)
+
+
+@pytest.fixture(scope="module")
+def box():
+    leaves = canonical_leaf_box(np.random.default_rng(5), density_per_m3=4.0)
+    return batecho.Scene(leaves)
+
+
+@pytest.fixture(scope="module")
+def sonar():
+    return batecho.Sonar(beamwidth_deg=30)
+
+
+@pytest.fixture(scope="module")
+def poses():
+    # Six pulses on a circle around the box, looking at its centre; one more looking away.
+    ring = batecho.circle((5.5, 0.0), radius=6.2, altitude=0.0, n_points=6, heading="center")
+    away = batecho.Poses([-2.0, 0.0, 0.0], [-1.0, 0.0, 0.0])
+    return batecho.Poses.concatenate([ring, away])
+
+
+@pytest.fixture(scope="module")
+def echoes(box, sonar, poses):
+    return batecho.simulate(box, sonar, poses)
+
+
+def _png_ok(fig, path) -> bool:
+    fig.savefig(path, dpi=60)
+    plt.close(fig)
+    img = plt.imread(path)
+    return path.stat().st_size > 0 and img.ndim == 3 and img.shape[0] > 10 and img.shape[1] > 10
+
+
+def test_plot_impulse_writes_png(echoes, tmp_path):
+    fig = plot_impulse(echoes, 0)
+    assert isinstance(fig, Figure) and _png_ok(fig, tmp_path / "impulse.png")
+
+
+def test_plot_impulse_says_an_empty_lobe_is_exactly_zero(echoes):
+    silent = int(np.flatnonzero(echoes.n_leaves == 0)[0])
+    fig = plot_impulse(echoes, silent)
+    assert "exactly zero" in fig.axes[0].get_title()
+    plt.close(fig)
+
+
+def test_plot_impulse_max_range_cuts_the_time_axis(echoes):
+    fig = plot_impulse(echoes, 0, max_range_m=5.0)
+    x = fig.axes[0].lines[0].get_xdata()
+    assert x.max() <= 2 * 5.0 / echoes.sonar.sound_speed * 1e3 + 1e-9
+    plt.close(fig)
+
+
+def test_plot_impulses_one_visible_panel_per_index(echoes, tmp_path):
+    fig = plot_impulses(echoes, [0, 1, 2], ncols=2, titles=["a", "b", "c"])
+    visible = [ax for ax in fig.axes if ax.get_visible() and ax.get_title()]
+    assert [ax.get_title() for ax in visible] == ["a", "b", "c"]
+    assert _png_ok(fig, tmp_path / "impulses.png")
+
+
+def test_plot_spectrum_writes_png(echoes, tmp_path):
+    assert _png_ok(plot_spectrum(echoes, 1), tmp_path / "spectrum.png")
+
+
+def test_plot_spectrogram_writes_png(echoes, tmp_path):
+    assert _png_ok(plot_spectrogram(echoes, 1), tmp_path / "spectrogram.png")
+
+
+def test_plot_echo_image_uses_the_given_x(echoes, tmp_path):
+    x = np.linspace(10.0, 70.0, len(echoes))
+    fig = plot_echo_image(echoes, x=x, xlabel="angle (deg)", max_range_m=8.0)
+    ax = fig.axes[0]
+    lo, hi = ax.get_xlim()
+    assert lo < 10.0 and hi > 70.0 and ax.get_xlabel() == "angle (deg)"
+    assert ax.get_ylim()[1] <= 8.0 + 1e-9
+    assert _png_ok(fig, tmp_path / "echo_image.png")
+
+
+def test_plot_echo_image_rejects_x_of_the_wrong_length(echoes):
+    with pytest.raises(ValueError, match="one value per pulse"):
+        plot_echo_image(echoes, x=[1.0, 2.0])
+
+
+def test_plot_echo_image_of_silent_pulses_only(box, sonar, tmp_path):
+    away = batecho.Poses([[-2.0, 0.0, 0.0], [-3.0, 0.0, 0.0]], [-1.0, 0.0, 0.0])
+    e = batecho.simulate(box, sonar, away)
+    assert not np.any(e.impulse)
+    assert _png_ok(plot_echo_image(e), tmp_path / "silent.png")
+
+
+def test_plot_scene_3d_writes_png(box, sonar, poses, tmp_path):
+    members = [batecho.lobe_members(box, sonar, poses[i]) for i in (0, 3)]
+    bark = (np.array([[0, 0, -2], [0.2, 0, -2], [0, 0.2, 2.0]]), np.array([[0, 1, 2]]))
+    fig = plot_scene_3d(
+        box,
+        poses,
+        sonar,
+        members=members,
+        trajectory=batecho.trajectories.Circle((5.5, 0.0), 6.2, 0.0),
+        bark=bark,
+        lobe_poses=[0, 3],
+        title="scene",
+    )
+    assert isinstance(fig, Figure) and _png_ok(fig, tmp_path / "scene.png")
+
+
+def test_plot_scene_3d_has_equal_scale_on_every_axis(box, poses):
+    fig = plot_scene_3d(box.leaves, poses, trajectory=poses.positions)
+    ax = fig.axes[0]
+    spans = np.array([np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim()), np.ptp(ax.get_zlim())])
+    aspect = np.asarray(ax.get_box_aspect(), dtype=float)
+    np.testing.assert_allclose(aspect / aspect.max(), spans / spans.max(), rtol=1e-6)
+    plt.close(fig)
+
+
+def test_plot_scene_3d_takes_anything_with_leaves(box, tmp_path):
+    class Thing:
+        leaves = box.leaves
+        bark_vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+        bark_faces = np.array([[0, 1, 2]])
+
+    assert _png_ok(plot_scene_3d(Thing(), max_points=50), tmp_path / "thing.png")
+
+
+def test_plot_scene_3d_rejects_other_objects():
+    with pytest.raises(TypeError, match="Leaves"):
+        plot_scene_3d(object())
+
+
+def test_lobe_surface_reaches_10_m_on_the_axis(sonar, poses):
+    X, Y, Z = lobe_surface(sonar, poses[0])
+    tip = np.array([X[0, 0], Y[0, 0], Z[0, 0]])
+    assert abs(np.linalg.norm(tip - poses.positions[0]) - 10.0) < 1e-9
+
+
+def test_lobe_surface_closes_at_the_pulse_position(sonar, poses):
+    X, Y, Z = lobe_surface(sonar, poses[2])
+    last = np.stack([X[-1], Y[-1], Z[-1]], axis=-1)
+    np.testing.assert_allclose(last, np.broadcast_to(poses.positions[2], last.shape))
+
+
+def test_lobe_surface_of_a_cone_stays_in_the_cone(poses):
+    cone = batecho.Sonar(lobe="cone", cone_half_angle_deg=12.0)
+    X, Y, Z = lobe_surface(cone, poses[1])
+    v = np.stack([X, Y, Z], axis=-1).reshape(-1, 3) - poses.positions[1]
+    r = np.linalg.norm(v, axis=1)
+    ok = r > 1e-12
+    ang = np.degrees(np.arccos(np.clip(v[ok] @ poses.forward[1] / r[ok], -1, 1)))
+    assert r.max() <= cone.range_limit_m + 1e-9 and ang.max() <= 12.0 + 1e-6
+
+
+def test_lobe_surface_bounds_the_counting_leaves(box, sonar, poses):
+    # Every counting leaf lies within the drawn boundary along its own direction.
+    i = 0
+    X, Y, Z = lobe_surface(sonar, poses[i], n_alpha=200, n_phi=8)
+    d = poses.forward[i]
+    members = batecho.lobe_members(box, sonar, poses[i])
+    v = box.leaves.centers[members] - poses.positions[i]
+    r = np.linalg.norm(v, axis=1)
+    ang = np.arccos(np.clip(v @ d / r, -1, 1))
+    # The beam is circular: the boundary's range as a function of the angle off the axis.
+    s = np.stack([X[:-1, 0], Y[:-1, 0], Z[:-1, 0]], axis=-1) - poses.positions[i]
+    sr = np.linalg.norm(s, axis=1)
+    sa = np.arccos(np.clip(s @ d / sr, -1, 1))
+    assert np.all(r <= np.interp(ang, sa, sr) * (1 + 1e-6) + 1e-9)
+    assert math.isclose(sr[0], 10.0)
+
+
+@pytest.mark.skipif(not forest_available(), reason="batecho.forest is not in this checkout yet")
+def test_plot_scene_3d_draws_a_forests_bark():
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from batecho.paper import make_forest
+
+    forest = make_forest([[0.0, 0.0], [5.0, 0.0]], np.random.default_rng(1), "lsystem")
+    fig = plot_scene_3d(forest, max_points=500, max_bark_faces=300)
+    fig.canvas.draw()
+    polys = [c for c in fig.axes[0].collections if isinstance(c, Poly3DCollection)]
+    assert len(polys) == 1 and len(polys[0].get_paths()) == 300
+    plt.close(fig)
