@@ -106,8 +106,76 @@ pub enum BoxTest {
     Inside,
 }
 
+/// Per-pose constants of a cheap angular pre-test (circular-enough beams: any Gaussian whose
+/// receiver is the emitter). On the sphere, the angle `gamma` between a direction and the beam
+/// centre is at most `sqrt(daz^2 + del^2)` (the straight line in (az, el) is a path no shorter
+/// than the geodesic), so `G <= A1^2 exp(-2 lambda_min gamma^2)`, with `lambda_min` the
+/// smaller eigenvalue of the quadratic form.
+#[derive(Clone, Copy, Debug)]
+pub struct AngularBound {
+    /// Beam centre direction (world frame).
+    centre: V3,
+    /// `2 lambda_min` (rad^-2).
+    lambda2: f64,
+    /// `ln(K A1^2)`, K the detection constant (m^2).
+    ln_reach_sq: f64,
+}
+
+impl AngularBound {
+    pub fn new(sonar: &Sonar, pose: &Pose) -> Option<Self> {
+        if sonar.params.receiver.is_some()
+            || !matches!(sonar.params.lobe, LobeRule::Detectable { .. })
+        {
+            return None;
+        }
+        let b = &sonar.params.emitter;
+        let lambda_min = (b.a + b.c) / 2.0 - (((b.a - b.c) / 2.0).powi(2) + b.b * b.b).sqrt();
+        if !(lambda_min > 0.0) {
+            return None;
+        }
+        let (ce, se) = (b.el0.cos(), b.el0.sin());
+        let (ca, sa) = (b.az0.cos(), b.az0.sin());
+        let centre: V3 = std::array::from_fn(|i| {
+            ce * ca * pose.forward[i] + ce * sa * pose.left[i] + se * pose.up[i]
+        });
+        Some(AngularBound {
+            centre,
+            lambda2: 2.0 * lambda_min * (1.0 - SLACK),
+            ln_reach_sq: (sonar.reach_sq_per_gain * b.amplitude * b.amplitude).ln() + SLACK,
+        })
+    }
+
+    /// True when no point at distance >= `rmin`, within `sin_delta` (angular radius) of the
+    /// direction `v / dist`, can count.
+    #[inline]
+    fn rules_out(&self, v: V3, dist: f64, sin_delta: f64, rmin: f64) -> bool {
+        let l = self.ln_reach_sq - 2.0 * rmin.ln();
+        if !(l > 0.0) {
+            return true;
+        }
+        let gamma_lim = (l / self.lambda2).sqrt();
+        let delta = sin_delta.asin();
+        if gamma_lim + delta >= PI {
+            return false;
+        }
+        let cos_gamma = dot(v, self.centre) / dist;
+        cos_gamma < (gamma_lim + delta).cos() - SLACK
+    }
+}
+
 /// Conservative test of the box `[lo, hi]` against the lobe of this pose.
 pub fn test_box(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> BoxTest {
+    test_box_with(sonar, pose, None, lo, hi)
+}
+
+/// [`test_box`] with an optional cheap angular pre-test (see [`AngularBound`]).
+pub fn test_box_with(
+    sonar: &Sonar,
+    pose: &Pose,
+    bound: Option<&AngularBound>,
+    lo: V3,
+    hi: V3,
+) -> BoxTest {
     let p = pose.position;
     let (mut d2, mut f2) = (0.0, 0.0);
     for i in 0..3 {
@@ -142,6 +210,11 @@ pub fn test_box(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> BoxTest {
     let dist = norm(v);
     if !(dist > rad) {
         return BoxTest::Partial;
+    }
+    if let Some(b) = bound {
+        if b.rules_out(v, dist, rad / dist, rmin) {
+            return BoxTest::Outside;
+        }
     }
     let delta = (rad / dist).asin() + SLACK;
     let vd = dot(v, pose.forward);
@@ -216,6 +289,7 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
             [a.max.x as f64, a.max.y as f64, a.max.z as f64],
         )
     };
+    let bound = AngularBound::new(sonar, pose);
     // Each stack entry: node index, and whether an ancestor was entirely inside.
     let mut stack: Vec<(u32, bool)> = Vec::with_capacity(64);
     stack.push((0, false));
@@ -223,7 +297,7 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
         let node = &bvh.nodes[ni as usize];
         let inside = inside || {
             let (lo, hi) = node_box(ni as usize);
-            match test_box(sonar, pose, lo, hi) {
+            match test_box_with(sonar, pose, bound.as_ref(), lo, hi) {
                 BoxTest::Outside => continue,
                 BoxTest::Partial => false,
                 BoxTest::Inside => true,

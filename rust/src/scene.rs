@@ -27,8 +27,11 @@ pub struct Scene {
     pub build_time: Duration,
 }
 
-/// The f32 box that surely contains the f64 point (rounded outward).
-fn point_box(c: V3) -> Aabb {
+/// The f32 box that surely contains the f64 point (rounded outward), widened by `half` on
+/// every side. (The leaf's own radius: zero-extent boxes make the builder's surface-area
+/// heuristic degenerate, quadratic for colinear leaves; the box still holds the centre, so
+/// the query stays conservative.)
+fn point_box(c: V3, half: f64) -> Aabb {
     let down = |x: f64| {
         let f = x as f32;
         if f as f64 > x {
@@ -46,8 +49,8 @@ fn point_box(c: V3) -> Aabb {
         }
     };
     Aabb::new(
-        Vec3A::new(down(c[0]), down(c[1]), down(c[2])),
-        Vec3A::new(up(c[0]), up(c[1]), up(c[2])),
+        Vec3A::new(down(c[0] - half), down(c[1] - half), down(c[2] - half)),
+        Vec3A::new(up(c[0] + half), up(c[1] + half), up(c[2] + half)),
     )
 }
 
@@ -100,7 +103,11 @@ impl Scene {
     pub fn new(centers: Vec<V3>, normals: Vec<V3>, radii: Vec<f64>) -> Result<Scene> {
         validate_leaves(&centers, &normals, &radii)?;
         let start = Instant::now();
-        let boxes: Vec<Aabb> = centers.iter().map(|&c| point_box(c)).collect();
+        let boxes: Vec<Aabb> = centers
+            .iter()
+            .zip(&radii)
+            .map(|(&c, &a)| point_box(c, a))
+            .collect();
         let mut core = Duration::default();
         let bvh = build_bvh2(&boxes, BvhBuildParams::fast_build(), &mut core);
         let build_time = start.elapsed();

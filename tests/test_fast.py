@@ -1,0 +1,94 @@
+"""The fast method keeps its promise: relative L2 error of the spectrum at most ``tol`` against
+the exact method, on generated scenes with the same hard cases as the exact path (normal and
+grazing incidence, lobe-boundary leaves, radii 1 mm - 20 cm, ranges 5 cm - record edge,
+many leaves at one range); ``auto`` too; and the same leaves count for both."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from _helpers import frame_points, rel_err
+from _strategies import cases
+from hypothesis import given
+from hypothesis import strategies as st
+
+import batecho
+from batecho import Leaves, Poses, Sonar, simulate
+
+TOLS = [1e-3, 1e-6, 1e-9, 1e-12]
+
+
+def assert_within_tol(leaves, sonar, pose, tol, method="fast"):
+    exact = simulate(leaves, sonar, pose, method="exact")
+    fast = simulate(leaves, sonar, pose, method=method, tol=tol)
+    assert np.array_equal(fast.n_leaves, exact.n_leaves)
+    assert rel_err(fast.spectrum, exact.spectrum) <= tol
+    return exact, fast
+
+
+@given(cases(), st.sampled_from(TOLS))
+def test_fast_is_within_tol_of_exact_on_generated_scenes(case, tol):
+    sonar, pose, leaves = case
+    assert_within_tol(leaves, sonar, pose, tol)
+
+
+@given(cases(), st.sampled_from(TOLS))
+def test_auto_is_within_tol_of_exact_on_generated_scenes(case, tol):
+    sonar, pose, leaves = case
+    assert_within_tol(leaves, sonar, pose, tol, method="auto")
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(200, 3000), st.floats(0.3, 9.5),
+       st.sampled_from(TOLS))
+def test_fast_is_within_tol_with_many_leaves_at_one_range(seed, n, r, tol):
+    rng = np.random.default_rng(seed)
+    sonar = Sonar(beamwidth_deg=40.0)
+    pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    az, el = rng.uniform(-0.2, 0.2, n), rng.uniform(-0.2, 0.2, n)
+    centers = frame_points(pose, np.full(n, r), az, el)
+    leaves = Leaves(centers, rng.normal(size=(n, 3)), rng.uniform(0.005, 0.05, n))
+    assert_within_tol(leaves, sonar, pose, tol)
+
+
+@pytest.mark.parametrize("tol", TOLS)
+@pytest.mark.parametrize("kw", [{}, {"absorption": batecho.Atmosphere()},
+                                {"leaf_model": "physical_optics"}, {"spreading": False},
+                                {"window": "rect", "beamwidth_deg": 60.0}])
+def test_fast_is_within_tol_on_the_canonical_box(tol, kw):
+    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+
+    leaves = canonical_leaf_box(np.random.default_rng(3))
+    assert_within_tol(leaves, canonical_sonar(**kw), canonical_pose(), tol)
+
+
+def test_fast_echo_of_an_empty_lobe_is_exactly_zero():
+    leaves = Leaves([[-3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    e = simulate(leaves, Sonar(), Poses([0, 0, 0], [1, 0, 0]), method="fast", tol=1e-6)
+    assert e.n_leaves[0] == 0 and not e.spectrum.any() and not e.impulse.any()
+
+
+def test_fast_works_with_few_band_bins():
+    sonar = Sonar(n_samples=1000, band_hz=(60e3, 62e3))  # 6 bins, fewer than the nodes
+    assert sonar.n_bins < 10
+    rng = np.random.default_rng(1)
+    n = 300
+    c = frame_points(Poses([0, 0, 0], [1, 0, 0]), rng.uniform(0.5, 0.8, n),
+                     rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n))
+    leaves = Leaves(c, rng.normal(size=(n, 3)), np.full(n, 0.02))
+    assert_within_tol(leaves, sonar, Poses([0, 0, 0], [1, 0, 0]), 1e-9)
+
+
+@pytest.mark.parametrize("tol", [0.0, -1e-3, 1.0, np.nan, 1e-14])
+def test_fast_refuses_tolerances_outside_its_range(tol):
+    leaves = Leaves([[3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    with pytest.raises(ValueError, match="tol"):
+        simulate(leaves, Sonar(), Poses([0, 0, 0], [1, 0, 0]), method="fast", tol=tol)
+
+
+def test_auto_below_the_fast_floor_is_exact():
+    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+
+    leaves = canonical_leaf_box(np.random.default_rng(8))
+    exact = simulate(leaves, canonical_sonar(), canonical_pose(), method="exact")
+    auto = simulate(leaves, canonical_sonar(), canonical_pose(), method="auto", tol=1e-15)
+    assert auto.spectrum.tobytes() == exact.spectrum.tobytes()
