@@ -84,6 +84,9 @@ def lobe_members(
     left: _F64,
     search: str = "bvh",
 ) -> npt.NDArray[np.int64]: ...
+def farthest_members(
+    scene: Scene, sonar: Sonar, positions: _F64, forward: _F64, up: _F64, left: _F64
+) -> _F64: ...
 def load_obj(
     path: str | PathLike[str],
     leaf_patterns: list[str] | None = None,

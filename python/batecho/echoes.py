@@ -81,6 +81,12 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact",
     if not (0.0 < tol < 1.0):
         raise ValueError(f"tol must be in (0, 1), got {tol!r}")
     sc = as_scene(scene)
+    if sonar.is_auto:
+        # Record from the farthest counting leaf of any pose (the provisional core sonar's
+        # record covers the lobe's whole reach, so it finds every counting leaf).
+        far = _core.farthest_members(sc._core, sonar._core, poses.positions, poses.forward,
+                                     poses.up, poses.left)
+        sonar = sonar.resolve(sonar.record_length_for(float(far.max())))
     spec, imp, counts = _core.simulate(sc._core, sonar._core, poses.positions, poses.forward,
                                        poses.up, poses.left, True, "bvh", method, tol)
     return Echoes(spectrum=spec, freqs=sonar.freqs, impulse=imp, times=sonar.times,

@@ -200,6 +200,14 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
     leaves = as_leaves(scene)
     if not isinstance(sonar, Sonar) or not isinstance(poses, Poses):
         raise TypeError("simulate(scene, sonar: Sonar, poses: Poses)")
+    if sonar.is_auto:
+        # the record holds the farthest counting leaf of any pose plus the pulse tail
+        provisional = sonar.resolve(sonar._provisional_n())
+        far = 0.0
+        for i in range(len(poses)):
+            mask, r, _, _ = _counting(leaves, provisional, poses, i)
+            far = max(far, float(r[mask].max(initial=0.0)))
+        sonar = sonar.resolve(sonar.record_length_for(far))
     k0, k1, f, w = _grid(sonar)
     a_all = leaves.radii
     if sonar.min_ka > 0:

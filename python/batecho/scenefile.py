@@ -108,7 +108,8 @@ _SONAR = {
     "beamwidth_deg": _Opt("float", doc="full -3 dB beamwidth, deg (default 30)"),
     "horseshoe_bat_khz": _Opt("float", doc="beamwidth from the horseshoe-bat fit at this kHz"),
     "fs": _Opt("float"),
-    "n_samples": _Opt("int"),
+    "n_samples": _Opt("int_or_auto", doc='record length, or "auto" (from the farthest leaf)'),
+    "record_tail_s": _Opt("float", doc='with n_samples = "auto": ring-down after the last echo'),
     "band_hz": _Opt("pair"),
     "sound_speed": _Opt("float"),
     "lobe": _Opt("str", choices=("detectable", "cone")),
@@ -292,6 +293,12 @@ def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
     if k == "int":
         if isinstance(v, bool) or not isinstance(v, int):
             raise _fail(where, key, f"expected an integer, got {v!r} ({_tname(v)})")
+        return v
+    if k == "int_or_auto":
+        if v == "auto":
+            return v
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise _fail(where, key, f'expected an integer or "auto", got {v!r} ({_tname(v)})')
         return v
     if k == "bool":
         if not isinstance(v, bool):

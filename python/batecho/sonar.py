@@ -123,7 +123,9 @@ class Sonar:
 
     Grid: sample rate ``fs`` (Hz), record length ``n_samples``, ``band_hz = (f_lo, f_hi)``,
     ``sound_speed`` (m/s). Band bins run from ``round(f_lo/df)`` to ``round(f_hi/df)``,
-    ``df = fs/n_samples``.
+    ``df = fs/n_samples``. ``n_samples="auto"`` takes the record, per call of ``simulate``,
+    from the farthest leaf that counts for any of the poses, plus ``record_tail_s`` for the
+    pulse to ring down (the result's ``echoes.sonar`` holds the length used).
 
     Lobe: ``lobe="detectable"`` (the authors' rule with ``threshold_db`` T, ``r0_m``, ``p0_pa``,
     ``p_ref_pa``: on the axis the reach is 10 m) or ``"cone"`` with ``cone_half_angle_deg``.
@@ -143,7 +145,7 @@ class Sonar:
     beam: Beam | None = None
     receiver: Beam | None = None
     fs: float = 400e3
-    n_samples: int = 24_000
+    n_samples: int | str = 24_000
     band_hz: tuple[float, float] = (60e3, 80e3)
     sound_speed: float = 340.0
     lobe: str = "detectable"
@@ -161,6 +163,7 @@ class Sonar:
     min_range_m: float = 0.01
     too_close: str = "raise"
     min_ka: float = 0.5
+    record_tail_s: float = 1e-3
     _core: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -182,8 +185,13 @@ class Sonar:
             raise ValueError(f"too_close must be 'raise' or 'skip', got {self.too_close!r}")
         if self.absorption is not None and not isinstance(self.absorption, Atmosphere):
             raise TypeError("absorption must be None or a batecho.Atmosphere")
-        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer)):
-            raise TypeError(f"n_samples must be an integer, got {self.n_samples!r}")
+        auto = isinstance(self.n_samples, str)
+        if auto and self.n_samples != "auto":
+            raise ValueError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
+        if not auto and (isinstance(self.n_samples, bool)
+                         or not isinstance(self.n_samples, (int, np.integer))):
+            raise TypeError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
+        positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
         if len(tuple(self.band_hz)) != 2:
             raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
         f_lo, f_hi = (finite_scalar(v, "band_hz") for v in self.band_hz)
@@ -215,7 +223,7 @@ class Sonar:
             cone,
             None if self.max_range_m is None else float(self.max_range_m),
             fs,
-            int(self.n_samples),
+            self._provisional_n() if auto else int(self.n_samples),
             f_lo,
             f_hi,
             float(self.sound_speed),
@@ -238,14 +246,60 @@ class Sonar:
 
     def replace(self, **changes) -> Sonar:
         """A copy with some parameters changed."""
-        if "beamwidth_deg" in changes and "beam" not in changes:
-            changes["beam"] = None
+        if "beamwidth_deg" in changes:
+            changes.setdefault("beam", None)
+        elif "beam" in changes:
+            changes.setdefault("beamwidth_deg", None)
+        elif self.beamwidth_deg is not None:
+            changes["beam"] = None  # the beam was derived from beamwidth_deg
         return dataclasses.replace(self, **changes)
 
+    # n_samples = "auto" ---------------------------------------------------------------------
+    @property
+    def is_auto(self) -> bool:
+        """True when the record length is chosen per simulation (``n_samples="auto"``)."""
+        return isinstance(self.n_samples, str)
+
+    def reach_m(self) -> float:
+        """The farthest a leaf can count from the lobe rule alone (m): ``sqrt(K A_tx A_rx)``
+        for the detectable rule (10 m with the defaults), ``max_range_m`` for the cone."""
+        if self.lobe == "cone":
+            if self.max_range_m is None:
+                return math.inf
+            return float(self.max_range_m)
+        level = 10.0 ** (self.threshold_db / 20.0) * self.p_ref_pa
+        K = self.r0_m * self.r0_m * self.p0_pa / level
+        rx = self.beam if self.receiver is None else self.receiver
+        reach = math.sqrt(K * self.beam.amplitude * rx.amplitude)
+        return reach if self.max_range_m is None else min(reach, float(self.max_range_m))
+
+    def record_length_for(self, range_m: float) -> int:
+        """The record (samples, a 2-3-5-smooth even number) that holds echoes out to
+        ``range_m`` plus ``record_tail_s``."""
+        need = self.fs * (2.0 * float(range_m) / self.sound_speed + self.record_tail_s)
+        return _fft_size(max(256, math.ceil(need)))
+
+    def _provisional_n(self) -> int:
+        reach = self.reach_m()
+        if not math.isfinite(reach):
+            raise ValueError("n_samples='auto' with lobe='cone' needs max_range_m (the cone has no "
+                             "range of its own)")
+        return self.record_length_for(reach)
+
+    def resolve(self, n_samples: int) -> Sonar:
+        """This sonar with a fixed record length."""
+        return self.replace(n_samples=int(n_samples))
+
     # Derived quantities -------------------------------------------------------------------
+    def _fixed(self, what: str) -> None:
+        if self.is_auto:
+            raise ValueError(f"{what} depends on the record length, which n_samples='auto' chooses "
+                             "per simulation: use echoes.sonar, or Sonar.resolve(n_samples)")
+
     @property
     def bins(self) -> tuple[int, int]:
         """(k0, k1): first and last band bin (inclusive) of the length-``n_samples`` rFFT."""
+        self._fixed("bins")
         return self._core.bins
 
     @property
@@ -257,21 +311,25 @@ class Sonar:
     @property
     def delta_f(self) -> float:
         """Bin spacing fs / n_samples (Hz)."""
+        self._fixed("delta_f")
         return self.fs / self.n_samples
 
     @property
     def freqs(self) -> np.ndarray:
         """(M,) band-bin frequencies ``k fs / n`` (Hz)."""
+        self._fixed("freqs")
         return self._core.freqs
 
     @property
     def times(self) -> np.ndarray:
         """(n_samples,) sample times (s)."""
+        self._fixed("times")
         return np.arange(self.n_samples) / self.fs
 
     @property
     def record_range_m(self) -> float:
         """Range covered by the record, ``v n / (2 fs)`` (m)."""
+        self._fixed("record_range_m")
         return self.sound_speed * self.n_samples / (2.0 * self.fs)
 
     @property
@@ -283,6 +341,18 @@ class Sonar:
     def max_reach_m(self) -> float:
         """The farthest a counting leaf can be (m): 10 m on the axis with the defaults."""
         return self._core.max_reach
+
+
+def _fft_size(n: int) -> int:
+    """The smallest even 2-3-5-smooth integer >= n (fast FFT lengths)."""
+    while True:
+        m = n
+        for p in (2, 3, 5):
+            while m % p == 0:
+                m //= p
+        if m == 1 and n % 2 == 0:
+            return n
+        n += 1
 
 
 __all__ = [

@@ -452,12 +452,33 @@ fn load_obj<'py>(
     pyo3::types::PyTuple::new(py, items)
 }
 
+/// The range (m) of the farthest counting leaf of each pose (0 where none counts).
+#[pyfunction]
+#[pyo3(signature = (scene, sonar, positions, forward, up, left))]
+fn farthest_members<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    sonar: &PySonar,
+    positions: PyReadonlyArray2<'py, f64>,
+    forward: PyReadonlyArray2<'py, f64>,
+    up: PyReadonlyArray2<'py, f64>,
+    left: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let poses = poses_from(&positions, &forward, &up, &left)?;
+    let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
+    let r = py
+        .detach(move || simulate::farthest_members(&sc, &so, &poses, Search::Bvh))
+        .map_err(to_py)?;
+    Ok(r.into_pyarray(py))
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScene>()?;
     m.add_class::<PySonar>()?;
     m.add_function(wrap_pyfunction!(simulate_py, m)?)?;
     m.add_function(wrap_pyfunction!(lobe_members, m)?)?;
+    m.add_function(wrap_pyfunction!(farthest_members, m)?)?;
     m.add_function(wrap_pyfunction!(load_obj, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

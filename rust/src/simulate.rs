@@ -45,6 +45,25 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
     Ok(())
 }
 
+/// The range (m) of the farthest counting leaf of each pose (0 where none counts); poses in
+/// parallel. `n_samples = "auto"` takes the record from this.
+pub fn farthest_members(
+    scene: &Scene,
+    sonar: &Sonar,
+    poses: &[Pose],
+    search: Search,
+) -> Result<Vec<f64>> {
+    poses
+        .par_iter()
+        .enumerate()
+        .map(|(i, pose)| {
+            Ok(members(scene, sonar, pose, i, search)?
+                .iter()
+                .fold(0.0f64, |m, mb| m.max(mb.range)))
+        })
+        .collect()
+}
+
 /// How the band spectrum is summed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Method {
