@@ -30,7 +30,7 @@ use crate::phase::CyclesPerBin;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar};
 use crate::spectrum::{leaf_term, LeafTerm};
-use crate::vmath::{cis_neg_cycles, cos_0_pi, erf_cheb, exp_nonpos, sincos_unit};
+use crate::vmath::{cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, exp_nonpos_d, sincos_unit_k};
 use multiversion::multiversion;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
@@ -42,7 +42,7 @@ const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
 /// Largest number of interpolation nodes.
 pub const MAX_NODES: usize = 16;
 /// Leaves per parallel task (each task spreads into its own grid; grids are added in order).
-pub const FAST_CHUNK: usize = 16_384;
+pub const FAST_CHUNK: usize = 65_536;
 /// The tightest tolerance the fast path accepts (the interpolants' floor is ~2e-14).
 pub const MIN_TOL: f64 = 1e-13;
 
@@ -80,13 +80,18 @@ pub struct FastPlan {
 
 impl FastPlan {
     pub fn new(sonar: &Sonar, tol: f64) -> Result<FastPlan> {
+        FastPlan::with_nodes(sonar, tol, nodes_for_tol(tol))
+    }
+
+    /// A plan with `p` Chebyshev nodes (at most [`MAX_NODES`]).
+    pub fn with_nodes(sonar: &Sonar, tol: f64, p: usize) -> Result<FastPlan> {
         if !(MIN_TOL..1.0).contains(&tol) {
             return invalid(format!(
                 "tol must be in [{MIN_TOL:e}, 1) for the fast method, got {tol:e} (use method='exact' for exact sums)"
             ));
         }
         let m = sonar.n_bins();
-        let p = nodes_for_tol(tol).min(m.max(1));
+        let p = p.clamp(1, MAX_NODES).min(m.max(1));
         let tn: Vec<f64> = (0..p)
             .map(|q| ((2 * q + 1) as f64 * PI / (2 * p) as f64).cos())
             .collect();
@@ -158,7 +163,17 @@ impl std::fmt::Debug for PlanCache {
 impl PlanCache {
     /// The plan for `tol`, built on first use.
     pub fn get(&self, sonar: &Sonar, tol: f64) -> Result<std::sync::Arc<FastPlan>> {
-        let key = tol.to_bits();
+        self.get_with_nodes(sonar, tol, nodes_for_tol(tol))
+    }
+
+    /// The plan for `tol` with `p` nodes, built on first use.
+    pub fn get_with_nodes(
+        &self,
+        sonar: &Sonar,
+        tol: f64,
+        p: usize,
+    ) -> Result<std::sync::Arc<FastPlan>> {
+        let key = tol.to_bits() ^ ((p as u64) << 56);
         if let Some((_, p)) = self
             .0
             .lock()
@@ -168,9 +183,9 @@ impl PlanCache {
         {
             return Ok(p.clone());
         }
-        let plan = std::sync::Arc::new(FastPlan::new(sonar, tol)?);
+        let plan = std::sync::Arc::new(FastPlan::with_nodes(sonar, tol, p)?);
         let mut guard = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        if guard.len() >= 8 {
+        if guard.len() >= 32 {
             guard.remove(0);
         }
         guard.push((key, plan.clone()));
@@ -271,6 +286,8 @@ fn node_values(
 struct Partial {
     grid: Vec<f64>,
     direct: Option<(Vec<f64>, Vec<f64>)>,
+    /// Leaves (indices into the chunk) left for a second pass.
+    deferred: Vec<usize>,
 }
 
 /// Leaves per vector batch of the fast path.
@@ -317,6 +334,197 @@ fn spread_one(
     }
 }
 
+/// From this tolerance up, node values use the short series of [`crate::vmath`] (errors
+/// below 1e-12, far under the `tol / 5` budget) instead of the full ones (~1e-16).
+pub const SHORT_SERIES_TOL: f64 = 1e-9;
+
+/// [`paper_nodes_p`] at the precision the plan's tolerance needs.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn paper_nodes<const ATTEN: bool>(
+    plan: &FastPlan,
+    amp: &[f64; LB],
+    range: &[f64; LB],
+    beta: &[f64; LB],
+    a: &[f64; LB],
+    ap: &[f64; LB],
+    aq: &[f64; LB],
+) -> ([[f64; LB]; MAX_NODES], [[f64; LB]; MAX_NODES]) {
+    if plan.tol >= SHORT_SERIES_TOL {
+        paper_nodes_p::<ATTEN, true>(plan, amp, range, beta, a, ap, aq)
+    } else {
+        paper_nodes_p::<ATTEN, false>(plan, amp, range, beta, a, ap, aq)
+    }
+}
+
+/// Node values of the paper model's leaf factor for a batch of leaves (lanes = leaves):
+/// `F(t_q) = amp L exp(-j psi) / k [exp(-atten r)]` at each of the plan's nodes; `SHORT`
+/// selects the short series.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn paper_nodes_p<const ATTEN: bool, const SHORT: bool>(
+    plan: &FastPlan,
+    amp: &[f64; LB],
+    range: &[f64; LB],
+    beta: &[f64; LB],
+    a: &[f64; LB],
+    ap: &[f64; LB],
+    aq: &[f64; LB],
+) -> ([[f64; LB]; MAX_NODES], [[f64; LB]; MAX_NODES]) {
+    let nt = &plan.nodes;
+    let (h0r, h0i) = (PAPER_PSI0.cos(), -PAPER_PSI0.sin());
+    let mut fr = [[0.0; LB]; MAX_NODES];
+    let mut fi = [[0.0; LB]; MAX_NODES];
+    // Nodes in pairs: the two erf recurrences interleave (the Clenshaw chain is the longest).
+    for q0 in (0..plan.p).step_by(2) {
+        let mut zz = [0.0; 2 * LB];
+        for h in 0..2 {
+            let q = (q0 + h).min(plan.p - 1);
+            let kq = nt.kq[q];
+            for i in 0..LB {
+                zz[h * LB + i] =
+                    PAPER_P1.mul_add(kq * aq[i], PAPER_P0) * (PAPER_BETA_REF - beta[i]);
+            }
+        }
+        let e = if SHORT {
+            erf_cheb_lanes::<28, { 2 * LB }>(&zz)
+        } else {
+            erf_cheb_lanes::<40, { 2 * LB }>(&zz)
+        };
+        for h in 0..2 {
+            let q = q0 + h;
+            if q >= plan.p {
+                break;
+            }
+            let (k, inv_k, kp) = (nt.k[q], nt.inv_k[q], nt.kp[q]);
+            for i in 0..LB {
+                let c = k * a[i];
+                let ac = (PAPER_A2 * c).mul_add(c, PAPER_A0);
+                let bc = PAPER_B1.mul_add(kp * ap[i], PAPER_B0);
+                let cx = if SHORT {
+                    cos_0_pi_k::<9>(bc * beta[i])
+                } else {
+                    cos_0_pi_k::<12>(bc * beta[i])
+                };
+                let l = (ac * cx).max(0.0);
+                let ei = e[h * LB + i];
+                let (se, ce) = if SHORT {
+                    sincos_unit_k::<7, 8>(ei)
+                } else {
+                    sincos_unit_k::<11, 12>(ei)
+                };
+                let hr = h0r.mul_add(ce, h0i * se);
+                let hi = h0i.mul_add(ce, -h0r * se);
+                let mut am = amp[i] * l * inv_k;
+                if ATTEN {
+                    let x = -nt.atten[q] * range[i];
+                    am *= if SHORT {
+                        exp_nonpos_d::<10>(x)
+                    } else {
+                        exp_nonpos_d::<13>(x)
+                    };
+                }
+                fr[q][i] = am * hr;
+                fi[q][i] = am * hi;
+            }
+        }
+    }
+    (fr, fi)
+}
+
+/// Lane arrays (amp, range, beta, radius, radius^-0.9065, radius^0.3523) of a batch of up to
+/// `LB` leaves; missing lanes repeat the last leaf.
+#[inline(always)]
+fn lanes_of(batch: &[&LeafTerm]) -> [[f64; LB]; 6] {
+    let n = batch.len();
+    let mut out = [[0.0; LB]; 6];
+    for i in 0..LB {
+        let t = batch[i.min(n - 1)];
+        out[0][i] = t.amp;
+        out[1][i] = t.range;
+        out[2][i] = t.beta;
+        out[3][i] = t.radius;
+        out[4][i] = t.radius_pow_b;
+        out[5][i] = t.radius_pow_p;
+    }
+    out
+}
+
+/// Calls with fewer leaves than this use the node count of the worst leaf (`nodes_for_tol`);
+/// larger ones choose it from a sample of their own leaves.
+pub const ADAPT_MIN_LEAVES: usize = 8192;
+/// Leaves sampled to choose the node count.
+const ADAPT_SAMPLE: usize = 256;
+
+/// The number of Chebyshev nodes for these leaves: from a sample of them (smooth, paper model),
+/// the node count each needs for `tol` is read off its Chebyshev coefficients at the plan's
+/// node count, and the count with the least expected cost is taken. Leaves that need more
+/// fail the per-leaf check and get a second pass at the full count (or the exact sum), so the
+/// choice changes the speed, never the error bound.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn choose_nodes(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
+    if terms.len() < ADAPT_MIN_LEAVES || sonar.params.leaf_model != LeafModel::Paper {
+        return plan.p;
+    }
+    let stride = (terms.len() / ADAPT_SAMPLE).max(1);
+    let sample: Vec<&LeafTerm> = terms
+        .iter()
+        .step_by(stride)
+        .filter(|t| paper_regime(&sonar.tables, t) == PaperRegime::Smooth)
+        .take(ADAPT_SAMPLE)
+        .collect();
+    if sample.len() < 32 {
+        return plan.p;
+    }
+    let p = plan.p;
+    let atten = !plan.nodes.atten.is_empty();
+    // T_d(t_q) for the DCT of node values
+    let mut tdq = [[0.0f64; MAX_NODES]; MAX_NODES];
+    for (d, row) in tdq.iter_mut().enumerate().take(p) {
+        for (q, v) in row.iter_mut().enumerate().take(p) {
+            *v = (d as f64 * ((2 * q + 1) as f64 * PI / (2 * p) as f64)).cos();
+        }
+    }
+    let mut need: Vec<usize> = Vec::with_capacity(sample.len());
+    for batch in sample.chunks(LB) {
+        let l = lanes_of(batch);
+        let (fr, fi) = if atten {
+            paper_nodes::<true>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5])
+        } else {
+            paper_nodes::<false>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5])
+        };
+        for i in 0..batch.len() {
+            let peak = (0..p).fold(0.0f64, |m, q| m.max(fr[q][i].abs()).max(fi[q][i].abs()));
+            // the last coefficient above 2 tol peak decides: P must reach one past it
+            let mut last = 0;
+            for (d, row) in tdq.iter().enumerate().take(p).skip(1) {
+                let (mut cr, mut ci) = (0.0, 0.0);
+                for q in 0..p {
+                    cr += row[q] * fr[q][i];
+                    ci += row[q] * fi[q][i];
+                }
+                if (cr.abs().max(ci.abs()) * 2.0 / p as f64) > 2.0 * plan.tol * peak {
+                    last = d;
+                }
+            }
+            need.push((last + 2).min(p));
+        }
+    }
+    // Expected cost per leaf of P nodes: node values and spreading grow with P; a leaf that
+    // needs more goes to a second pass at the plan's full node count.
+    let node_cost = |q: usize| q as f64 * (8.0 + 0.5 * plan.nufft.w as f64);
+    let second_pass = node_cost(p) + 30.0;
+    (2..=p)
+        .min_by(|&x, &y| {
+            let cost = |q: usize| {
+                let fail = need.iter().filter(|&&n| n > q).count() as f64 / need.len() as f64;
+                node_cost(q) + fail * second_pass
+            };
+            cost(x).total_cmp(&cost(y))
+        })
+        .unwrap_or(p)
+}
+
 /// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
 /// leaves (lanes), then the spreading; leaves failing the smoothness check go to `direct`.
 #[inline(always)]
@@ -329,50 +537,11 @@ fn paper_batch<const ATTEN: bool>(
     direct: &mut Vec<usize>,
     batch_ids: &[usize],
 ) {
-    let nt = &plan.nodes;
     let (p, w, glen) = (plan.p, plan.nufft.w, plan.nufft.grid_len());
     let sp = &sonar.params;
     let n = batch.len();
-    let lane = |f: &dyn Fn(&LeafTerm) -> f64| -> [f64; LB] {
-        std::array::from_fn(|i| f(batch[i.min(n - 1)]))
-    };
-    let (amp, range, beta, a) = (
-        lane(&|t| t.amp),
-        lane(&|t| t.range),
-        lane(&|t| t.beta),
-        lane(&|t| t.radius),
-    );
-    let (ap, aq) = (lane(&|t| t.radius_pow_b), lane(&|t| t.radius_pow_p));
-    let (h0r, h0i) = (PAPER_PSI0.cos(), -PAPER_PSI0.sin());
-    // Leaf factor at every node, lanes = leaves.
-    let mut fr = [[0.0; LB]; MAX_NODES];
-    let mut fi = [[0.0; LB]; MAX_NODES];
-    for q in 0..p {
-        let (k, inv_k, kp, kq) = (nt.k[q], nt.inv_k[q], nt.kp[q], nt.kq[q]);
-        let mut zz = [0.0; LB];
-        for i in 0..LB {
-            zz[i] = PAPER_P1.mul_add(kq * aq[i], PAPER_P0) * (PAPER_BETA_REF - beta[i]);
-        }
-        let mut e = [0.0; LB];
-        for i in 0..LB {
-            e[i] = erf_cheb(zz[i]);
-        }
-        for i in 0..LB {
-            let c = k * a[i];
-            let ac = (PAPER_A2 * c).mul_add(c, PAPER_A0);
-            let bc = PAPER_B1.mul_add(kp * ap[i], PAPER_B0);
-            let l = (ac * cos_0_pi(bc * beta[i])).max(0.0);
-            let (se, ce) = sincos_unit(e[i]);
-            let hr = h0r.mul_add(ce, h0i * se);
-            let hi = h0i.mul_add(ce, -h0r * se);
-            let mut am = amp[i] * l * inv_k;
-            if ATTEN {
-                am *= exp_nonpos(-nt.atten[q] * range[i]);
-            }
-            fr[q][i] = am * hr;
-            fi[q][i] = am * hi;
-        }
-    }
+    let [amp, range, beta, a, ap, aq] = lanes_of(batch);
+    let (fr, fi) = paper_nodes::<ATTEN>(plan, &amp, &range, &beta, &a, &ap, &aq);
     // Smoothness check per lane: the last Chebyshev coefficient against the lane's peak.
     let mut ok = [true; LB];
     {
@@ -397,23 +566,24 @@ fn paper_batch<const ATTEN: bool>(
         x[i] = if f < 0.0 { f + 1.0 } else { f };
         (pr[i], pi[i]) = cis_neg_cycles(cq.frac_at(shift));
     }
-    // Kernel weights, lanes = leaves.
+    // Kernel weights from the piecewise polynomials, lanes = leaves.
     let nf = plan.nufft.nf as f64;
-    let (beta_k, scale) = (plan.nufft.beta, 2.0 / w as f64);
     let mut l0f = [0.0; LB];
-    let mut xs = [0.0; LB];
+    let mut u = [0.0; LB];
     for i in 0..LB {
-        xs[i] = x[i] * nf;
-        l0f[i] = (xs[i] - w as f64 / 2.0).ceil();
+        let left = x[i] * nf - w as f64 / 2.0;
+        l0f[i] = left.ceil();
+        u[i] = l0f[i] - left;
     }
     let mut wts = [[0.0; LB]; MAX_W];
     for (j, wj) in wts.iter_mut().enumerate().take(w) {
-        for i in 0..LB {
-            let z = (l0f[i] + j as f64 - xs[i]) * scale;
-            let zz = z * z;
-            let v = exp_nonpos(beta_k * ((1.0 - zz).max(0.0).sqrt() - 1.0));
-            wj[i] = if zz <= 1.0 { v } else { 0.0 };
+        let mut acc = [0.0f64; LB];
+        for c in plan.nufft.horner.iter().rev() {
+            for i in 0..LB {
+                acc[i] = acc[i].mul_add(u[i], c[j]);
+            }
         }
+        *wj = acc;
     }
     // Spread each lane (weights past the kernel's width stay zero).
     let mut wd = [0.0; 2 * MAX_W];
@@ -439,7 +609,7 @@ fn paper_batch<const ATTEN: bool>(
 }
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
+fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], defer: bool) -> Partial {
     let (p, glen, w) = (plan.p, plan.nufft.grid_len(), plan.nufft.w);
     let mut grid = vec![0.0; 2 * p * glen];
     let mut direct_ids: Vec<usize> = Vec::new();
@@ -510,11 +680,19 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             }
         }
     }
-    // Leaves the interpolation cannot represent to tol: summed exactly, in index order.
+    // Leaves the interpolation cannot represent to tol: deferred to a second pass, or summed
+    // exactly, in index order.
+    direct_ids.sort_unstable();
+    if defer {
+        return Partial {
+            grid,
+            direct: None,
+            deferred: direct_ids,
+        };
+    }
     let direct = if direct_ids.is_empty() {
         None
     } else {
-        direct_ids.sort_unstable();
         let m_pad = sonar.tables.m_pad;
         let (mut re, mut im) = (vec![0.0; m_pad], vec![0.0; m_pad]);
         for &i in &direct_ids {
@@ -522,7 +700,11 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
         }
         Some((re, im))
     };
-    Partial { grid, direct }
+    Partial {
+        grid,
+        direct,
+        deferred: Vec::new(),
+    }
 }
 
 /// The windowed band spectrum `(re, im)` of the members by the fast method.
@@ -539,13 +721,46 @@ pub fn fast_band_spectrum(
     fast_sum_terms(sonar, plan, &terms)
 }
 
-/// The windowed band spectrum of the given leaf terms by the fast method.
+/// The windowed band spectrum of the given leaf terms by the fast method; `plan` fixes the
+/// tolerance and the largest node count (see [`choose_nodes`]).
 pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+    let p = choose_nodes(sonar, plan, terms);
+    if p < plan.p {
+        if let Ok(smaller) = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p) {
+            // First pass with fewer nodes; leaves it cannot represent get the full count.
+            let (mut re, mut im, deferred) = fast_sum_fixed(sonar, &smaller, terms, true);
+            if !deferred.is_empty() {
+                let rest: Vec<LeafTerm> = deferred.iter().map(|&i| terms[i]).collect();
+                let (r2, i2, _) = fast_sum_fixed(sonar, plan, &rest, false);
+                for j in 0..re.len() {
+                    re[j] += r2[j];
+                    im[j] += i2[j];
+                }
+            }
+            return (re, im);
+        }
+    }
+    let (re, im, _) = fast_sum_fixed(sonar, plan, terms, false);
+    (re, im)
+}
+
+/// One fast pass at the plan's node count; with `defer`, the leaves it cannot represent are
+/// returned (indices into `terms`, ascending) instead of summed exactly.
+fn fast_sum_fixed(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    terms: &[LeafTerm],
+    defer: bool,
+) -> (Vec<f64>, Vec<f64>, Vec<usize>) {
     let m = sonar.n_bins();
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = vec![0.0; 2 * p * glen];
     let mut direct = (vec![0.0; sonar.tables.m_pad], vec![0.0; sonar.tables.m_pad]);
-    let mut add = |part: Partial| {
+    let mut deferred: Vec<usize> = Vec::new();
+    let mut offset = 0usize;
+    let mut add = |part: Partial, len: usize| {
+        deferred.extend(part.deferred.iter().map(|&i| i + offset));
+        offset += len;
         for (g, v) in grid.iter_mut().zip(&part.grid) {
             *g += v;
         }
@@ -557,14 +772,14 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
         }
     };
     if terms.len() <= FAST_CHUNK {
-        add(spread_chunk(sonar, plan, terms));
+        add(spread_chunk(sonar, plan, terms, defer), terms.len());
     } else {
         for batch in terms.chunks(FAST_CHUNK * 16) {
-            let parts: Vec<Partial> = batch
+            let parts: Vec<(Partial, usize)> = batch
                 .par_chunks(FAST_CHUNK)
-                .map(|c| spread_chunk(sonar, plan, c))
+                .map(|c| (spread_chunk(sonar, plan, c, defer), c.len()))
                 .collect();
-            parts.into_iter().for_each(&mut add);
+            parts.into_iter().for_each(|(p, len)| add(p, len));
         }
     }
     // One NUFFT per channel, then the Lagrange combination.
@@ -591,7 +806,7 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
         re[j] = acc.re * sonar.window[j];
         im[j] = acc.im * sonar.window[j];
     }
-    (re, im)
+    (re, im, deferred)
 }
 
 #[cfg(test)]

@@ -49,6 +49,68 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     (x, w)
 }
 
+/// The ES kernel as piecewise polynomials. A point at grid coordinate `xs` has its first grid
+/// point at `l0 = ceil(xs - w/2)`, and `u = l0 - (xs - w/2)` in [0, 1); grid point `l0 + j`
+/// gets the weight `phi((j + u - w/2) 2 / w)`. For each `j` that is a smooth function of `u`,
+/// interpolated at `w + 4` Chebyshev nodes (degree `w + 3`, as FINUFFT uses for sigma = 2) and
+/// stored as monomial coefficients in `u`: `coef[d][j]`.
+fn kernel_polynomials(w: usize, beta: f64) -> Vec<[f64; MAX_W]> {
+    let deg = w + 3;
+    let n = deg + 1;
+    // Chebyshev nodes on [0, 1]
+    let us: Vec<f64> = (0..n)
+        .map(|k| 0.5 + 0.5 * ((2 * k + 1) as f64 * PI / (2 * n) as f64).cos())
+        .collect();
+    let phi = |z: f64| {
+        if z.abs() <= 1.0 {
+            (beta * ((1.0 - z * z).sqrt() - 1.0)).exp()
+        } else {
+            0.0
+        }
+    };
+    // Solve the Vandermonde system for the monomial coefficients on [0, 1] per interval j.
+    let mut coef = vec![[0.0f64; MAX_W]; n];
+    for j in 0..w {
+        // weight of grid point l0 + j for a point whose offset from l0 is -u (u = l0 - xs in [0, 1))
+        let vals: Vec<f64> = us
+            .iter()
+            .map(|&u| phi((j as f64 + u - w as f64 / 2.0) * 2.0 / w as f64))
+            .collect();
+        let c = solve_vandermonde(&us, &vals);
+        for (row, &cd) in coef.iter_mut().zip(&c) {
+            row[j] = cd;
+        }
+    }
+    coef
+}
+
+/// Monomial coefficients of the polynomial through `(x_k, y_k)` (Newton divided differences;
+/// well conditioned enough on [0, 1] for the degrees used here).
+fn solve_vandermonde(x: &[f64], y: &[f64]) -> Vec<f64> {
+    let n = x.len();
+    let mut dd = y.to_vec();
+    for k in 1..n {
+        for i in (k..n).rev() {
+            dd[i] = (dd[i] - dd[i - 1]) / (x[i] - x[i - k]);
+        }
+    }
+    // expand the Newton form into monomials
+    let mut c = vec![0.0; n];
+    for k in (0..n).rev() {
+        // c = c * (t - x_k) + dd_k
+        let mut next = vec![0.0; n];
+        for d in 0..n {
+            if d + 1 < n {
+                next[d + 1] += c[d];
+            }
+            next[d] -= c[d] * x[k];
+        }
+        next[0] += dd[k];
+        c = next;
+    }
+    c
+}
+
 /// Smallest `n >= min` whose prime factors are 2, 3 and 5 (fast FFT sizes), and even.
 pub fn fft_size(min: usize) -> usize {
     let mut n = min.max(2);
@@ -79,6 +141,9 @@ pub struct Type1Plan {
     pub pad: usize,
     /// `1 / (nf Phi(k))` for the modes `k = -modes/2 ..`.
     correction: Vec<f64>,
+    /// Piecewise-polynomial kernel (as FINUFFT evaluates it): `weight_j(u) =
+    /// sum_d horner[d][j] u^d` for the point's offset `u` in [0, 1) from its first grid point.
+    pub horner: Vec<[f64; MAX_W]>,
     fft: Arc<dyn Fft<f64>>,
 }
 
@@ -120,6 +185,7 @@ impl Type1Plan {
             beta,
             pad: MAX_W,
             correction,
+            horner: kernel_polynomials(w, beta),
             fft,
         })
     }
@@ -129,10 +195,26 @@ impl Type1Plan {
         self.nf + 2 * self.pad
     }
 
-    /// Kernel weights of the point `x` in [0, 1): fills `out[..w]` and returns the padded grid
-    /// index of the first weight.
+    /// Kernel weights of the point `x` in [0, 1) from the piecewise polynomials: fills
+    /// `out[..w]` (zero past `w`) and returns the padded grid index of the first weight.
     #[inline(always)]
     pub fn weights(&self, x: f64, out: &mut [f64; MAX_W]) -> usize {
+        let xs = x * self.nf as f64;
+        let l0 = (xs - self.w as f64 / 2.0).ceil();
+        let u = l0 - (xs - self.w as f64 / 2.0);
+        let mut acc = [0.0f64; MAX_W];
+        for c in self.horner.iter().rev() {
+            for j in 0..MAX_W {
+                acc[j] = acc[j].mul_add(u, c[j]);
+            }
+        }
+        *out = acc;
+        (l0 as i64 + self.pad as i64) as usize
+    }
+
+    /// Kernel weights of the point `x` evaluated from the kernel's formula (exp and sqrt).
+    #[inline(always)]
+    pub fn exact_weights(&self, x: f64, out: &mut [f64; MAX_W]) -> usize {
         let xs = x * self.nf as f64;
         let l0 = (xs - self.w as f64 / 2.0).ceil();
         let scale = 2.0 / self.w as f64;
@@ -179,6 +261,26 @@ mod tests {
         assert!((int(0) - 2.0).abs() < 1e-14);
         assert!((int(18) - 2.0 / 19.0).abs() < 1e-14);
         assert!(int(7).abs() < 1e-15);
+    }
+
+    #[test]
+    fn polynomial_kernel_weights_match_the_kernel() {
+        for eps in [1e-3, 1e-6, 1e-9, 1e-12] {
+            let plan = Type1Plan::new(1201, eps).unwrap();
+            let mut exact = [0.0; MAX_W];
+            let mut worst: f64 = 0.0;
+            for k in 0..1000 {
+                let x = k as f64 / 1000.0 * 0.999 + 1e-4;
+                let l0 = plan.exact_weights(x, &mut exact);
+                let xs = x * plan.nf as f64;
+                let u = (l0 as f64 - plan.pad as f64) - (xs - plan.w as f64 / 2.0);
+                for j in 0..plan.w {
+                    let p = plan.horner.iter().rev().fold(0.0, |acc, c| acc * u + c[j]);
+                    worst = worst.max((p - exact[j]).abs());
+                }
+            }
+            assert!(worst < eps * 0.1, "eps {eps:e}: {worst:e}");
+        }
     }
 
     #[test]

@@ -7,83 +7,96 @@ use crate::erf_table::{ERFCX_CHEB, ERF_DEGREE, ERF_INTERVALS, ERF_TAYLOR, ERF_WI
 const PIO2_HI: f64 = std::f64::consts::FRAC_PI_2; // pi/2 rounded to f64
 const PIO2_LO: f64 = 6.123_233_995_736_766e-17; // pi/2 - PIO2_HI
 
+/// Taylor coefficients of sin: `(-1)^k / (2k + 1)!`.
+const SIN_C: [f64; 12] = [
+    1.0,
+    -1.0 / 6.0,
+    1.0 / 120.0,
+    -1.0 / 5040.0,
+    1.0 / 362_880.0,
+    -1.0 / 39_916_800.0,
+    1.0 / 6_227_020_800.0,
+    -1.0 / 1_307_674_368_000.0,
+    1.0 / 355_687_428_096_000.0,
+    -1.0 / 121_645_100_408_832_000.0,
+    1.0 / 51_090_942_171_709_440_000.0,
+    -1.0 / 25_852_016_738_884_976_640_000.0,
+];
+
+/// Taylor coefficients of cos: `(-1)^k / (2k)!`.
+const COS_C: [f64; 12] = [
+    1.0,
+    -1.0 / 2.0,
+    1.0 / 24.0,
+    -1.0 / 720.0,
+    1.0 / 40_320.0,
+    -1.0 / 3_628_800.0,
+    1.0 / 479_001_600.0,
+    -1.0 / 87_178_291_200.0,
+    1.0 / 20_922_789_888_000.0,
+    -1.0 / 6_402_373_705_728_000.0,
+    1.0 / 2_432_902_008_176_640_000.0,
+    -1.0 / 1_124_000_727_777_607_680_000.0,
+];
+
+/// Horner in `y2` over the first `K` coefficients.
+#[inline(always)]
+fn horner<const K: usize>(c: &[f64; 12], y2: f64) -> f64 {
+    let mut p = c[K - 1];
+    for k in (0..K - 1).rev() {
+        p = p.mul_add(y2, c[k]);
+    }
+    p
+}
+
+/// `sin(y)` for |y| <= pi/2 + 0.01 from the first `K` Taylor terms (K = 12: truncation
+/// < 1e-20; K = 9: < 5e-14).
+#[inline(always)]
+pub fn sin_small_k<const K: usize>(y: f64) -> f64 {
+    y * horner::<K>(&SIN_C, y * y)
+}
+
 /// `sin(y)` for |y| <= pi/2 + 0.01: Taylor series to y^23 (truncation < 1e-20).
 #[inline(always)]
 pub fn sin_small(y: f64) -> f64 {
-    const C: [f64; 12] = [
-        1.0,
-        -1.0 / 6.0,
-        1.0 / 120.0,
-        -1.0 / 5040.0,
-        1.0 / 362_880.0,
-        -1.0 / 39_916_800.0,
-        1.0 / 6_227_020_800.0,
-        -1.0 / 1_307_674_368_000.0,
-        1.0 / 355_687_428_096_000.0,
-        -1.0 / 121_645_100_408_832_000.0,
-        1.0 / 51_090_942_171_709_440_000.0,
-        -1.0 / 25_852_016_738_884_976_640_000.0,
-    ];
-    let y2 = y * y;
-    let mut p = C[11];
-    for &c in C[..11].iter().rev() {
-        p = p.mul_add(y2, c);
-    }
-    y * p
+    sin_small_k::<12>(y)
 }
 
 /// `cos(x)` for x in [0, pi]: `-sin(x - pi/2)` with pi/2 in two parts.
 #[inline(always)]
 pub fn cos_0_pi(x: f64) -> f64 {
-    -sin_small((x - PIO2_HI) - PIO2_LO)
+    cos_0_pi_k::<12>(x)
+}
+
+/// [`cos_0_pi`] from the first `K` Taylor terms of sin.
+#[inline(always)]
+pub fn cos_0_pi_k<const K: usize>(x: f64) -> f64 {
+    -sin_small_k::<K>((x - PIO2_HI) - PIO2_LO)
 }
 
 /// `(sin e, cos e)` for |e| <= 1: Taylor series to e^21 / e^22.
 #[inline(always)]
 pub fn sincos_unit(e: f64) -> (f64, f64) {
-    const S: [f64; 11] = [
-        1.0,
-        -1.0 / 6.0,
-        1.0 / 120.0,
-        -1.0 / 5040.0,
-        1.0 / 362_880.0,
-        -1.0 / 39_916_800.0,
-        1.0 / 6_227_020_800.0,
-        -1.0 / 1_307_674_368_000.0,
-        1.0 / 355_687_428_096_000.0,
-        -1.0 / 121_645_100_408_832_000.0,
-        1.0 / 51_090_942_171_709_440_000.0,
-    ];
-    const C: [f64; 12] = [
-        1.0,
-        -1.0 / 2.0,
-        1.0 / 24.0,
-        -1.0 / 720.0,
-        1.0 / 40_320.0,
-        -1.0 / 3_628_800.0,
-        1.0 / 479_001_600.0,
-        -1.0 / 87_178_291_200.0,
-        1.0 / 20_922_789_888_000.0,
-        -1.0 / 6_402_373_705_728_000.0,
-        1.0 / 2_432_902_008_176_640_000.0,
-        -1.0 / 1_124_000_727_777_607_680_000.0,
-    ];
+    sincos_unit_k::<11, 12>(e)
+}
+
+/// `(sin e, cos e)` for |e| <= 1 from the first `KS` / `KC` Taylor terms (7 / 8: < 8e-13).
+#[inline(always)]
+pub fn sincos_unit_k<const KS: usize, const KC: usize>(e: f64) -> (f64, f64) {
     let e2 = e * e;
-    let mut s = S[10];
-    for &c in S[..10].iter().rev() {
-        s = s.mul_add(e2, c);
-    }
-    let mut co = C[11];
-    for &c in C[..11].iter().rev() {
-        co = co.mul_add(e2, c);
-    }
-    (e * s, co)
+    (e * horner::<KS>(&SIN_C, e2), horner::<KC>(&COS_C, e2))
 }
 
 /// `exp(x)` for x <= 0 (clamped below at -700, where exp is 1e-304): reduction by ln 2 and a
 /// Taylor polynomial to degree 13 on |r| <= ln(2)/2.
 #[inline(always)]
 pub fn exp_nonpos(x: f64) -> f64 {
+    exp_nonpos_d::<13>(x)
+}
+
+/// [`exp_nonpos`] with a Taylor polynomial of degree `D` (D = 10: relative error < 4e-13).
+#[inline(always)]
+pub fn exp_nonpos_d<const D: usize>(x: f64) -> f64 {
     const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     const LOG2E: f64 = std::f64::consts::LOG2_E;
@@ -106,8 +119,8 @@ pub fn exp_nonpos(x: f64) -> f64 {
     let x = x.clamp(-700.0, 0.0);
     let n = (x * LOG2E).round_ties_even();
     let r = n.mul_add(-LN2_LO, n.mul_add(-LN2_HI, x));
-    let mut p = INV_FACT[13];
-    for &c in INV_FACT[..13].iter().rev() {
+    let mut p = INV_FACT[D];
+    for &c in INV_FACT[..D].iter().rev() {
         p = p.mul_add(r, c);
     }
     // 2^n without a float-to-int conversion: the low mantissa bits of n + 1023 + 2^52 hold
@@ -176,19 +189,63 @@ pub fn erf_lanes<const L: usize>(z: &[f64; L]) -> [f64; L] {
 /// beyond 6. Absolute error about 3e-16.
 #[inline(always)]
 pub fn erf_cheb(z: f64) -> f64 {
+    erf_cheb_n::<40>(z)
+}
+
+/// [`erf_cheb`] from the first `N` Chebyshev terms of erfcx (N = 28: absolute error < 3e-13).
+#[inline(always)]
+pub fn erf_cheb_n<const N: usize>(z: f64) -> f64 {
     let a = z.abs().min(6.0);
     let t = a * (1.0 / 3.0) - 1.0;
     let t2 = 2.0 * t;
     let (mut b1, mut b2) = (0.0f64, 0.0f64);
-    for &c in ERFCX_CHEB[1..].iter().rev() {
+    for &c in ERFCX_CHEB[1..N].iter().rev() {
         let b0 = t2.mul_add(b1, c - b2);
         b2 = b1;
         b1 = b0;
     }
     let erfcx = t.mul_add(b1, ERFCX_CHEB[0] - b2);
-    let e = 1.0 - exp_nonpos(-(a * a)) * erfcx;
+    let ex = if N >= 40 {
+        exp_nonpos_d::<13>(-(a * a))
+    } else {
+        exp_nonpos_d::<10>(-(a * a))
+    };
+    let e = 1.0 - ex * erfcx;
     let e = if z.abs() >= 6.0 { 1.0 } else { e };
     e.copysign(z)
+}
+
+/// [`erf_cheb_n`] over `L` independent lanes, coefficient loop outermost, so that the lanes'
+/// recurrences interleave (for `L` up to a few vector registers).
+#[inline(always)]
+pub fn erf_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> [f64; L] {
+    let mut t = [0.0; L];
+    let mut b1 = [0.0; L];
+    let mut b2 = [0.0; L];
+    for j in 0..L {
+        t[j] = z[j].abs().min(6.0) * (1.0 / 3.0) - 1.0;
+    }
+    for &c in ERFCX_CHEB[1..N].iter().rev() {
+        for j in 0..L {
+            let b0 = (2.0 * t[j]).mul_add(b1[j], c - b2[j]);
+            b2[j] = b1[j];
+            b1[j] = b0;
+        }
+    }
+    let mut out = [0.0; L];
+    for j in 0..L {
+        let a = z[j].abs().min(6.0);
+        let erfcx = t[j].mul_add(b1[j], ERFCX_CHEB[0] - b2[j]);
+        let ex = if N >= 40 {
+            exp_nonpos_d::<13>(-(a * a))
+        } else {
+            exp_nonpos_d::<10>(-(a * a))
+        };
+        let e = 1.0 - ex * erfcx;
+        let e = if z[j].abs() >= 6.0 { 1.0 } else { e };
+        out[j] = e.copysign(z[j]);
+    }
+    out
 }
 
 /// [`erf_cheb`] over a whole slice, coefficient loop outermost: every element is an
@@ -262,6 +319,40 @@ mod tests {
             worst = worst.max((erf_cheb(z) - libm::erf(z)).abs());
         }
         assert!(worst <= 4e-16, "max |erf_cheb - libm::erf| = {worst:e}");
+    }
+
+    #[test]
+    fn short_series_meet_their_stated_bounds() {
+        let mut worst = [0.0f64; 5];
+        for z in grid(-7.0, 7.0, 140_001) {
+            worst[0] = worst[0].max((erf_cheb_n::<28>(z) - libm::erf(z)).abs());
+        }
+        for x in grid(0.0, std::f64::consts::PI, 50_000) {
+            worst[1] = worst[1].max((cos_0_pi_k::<9>(x) - x.cos()).abs());
+        }
+        for e in grid(-1.0, 1.0, 50_000) {
+            let (s, c) = sincos_unit_k::<7, 8>(e);
+            worst[2] = worst[2].max((s - e.sin()).abs());
+            worst[3] = worst[3].max((c - e.cos()).abs());
+        }
+        for x in grid(-700.0, 0.0, 50_000) {
+            worst[4] = worst[4].max(((exp_nonpos_d::<10>(x) - x.exp()) / x.exp()).abs());
+        }
+        let bounds = [3e-13, 1e-13, 1e-12, 1e-13, 4e-13];
+        for (w, b) in worst.iter().zip(bounds) {
+            assert!(w <= &b, "{worst:?}");
+        }
+    }
+
+    #[test]
+    fn erf_cheb_lanes_matches_erf_cheb() {
+        let z: [f64; 16] = std::array::from_fn(|i| -7.0 + i as f64 * 0.93);
+        let e = erf_cheb_lanes::<40, 16>(&z);
+        let e28 = erf_cheb_lanes::<28, 16>(&z);
+        for i in 0..16 {
+            assert_eq!(e[i], erf_cheb(z[i]));
+            assert_eq!(e28[i], erf_cheb_n::<28>(z[i]));
+        }
     }
 
     #[test]
