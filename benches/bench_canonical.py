@@ -50,14 +50,21 @@ def main():
         ref_t.append(t)
     err = np.linalg.norm(fast.spectrum - slow.spectrum) / np.linalg.norm(slow.spectrum)
     m = int(fast.n_leaves[0])
-    print(f"canonical scene: {len(leaves)} leaves, {m} in the lobe, {sonar.n_bins} bins, "
-          f"threads={os.environ.get('RAYON_NUM_THREADS', os.cpu_count())}")
+    print(
+        f"canonical scene: {len(leaves)} leaves, {m} in the lobe, {sonar.n_bins} bins, "
+        f"threads={os.environ.get('RAYON_NUM_THREADS', os.cpu_count())}"
+    )
     med_rust, med_ref = statistics.median(rust_t), statistics.median(ref_t)
-    print(f"batecho.simulate   : {med_rust * 1e3:8.2f} ms per pulse (median of {args.repeat} warm "
-          f"batches; {med_rust / (m * sonar.n_bins) * 1e9:.2f} ns per (leaf, bin) of wall time)")
+    print(
+        f"batecho.simulate   : {med_rust * 1e3:8.2f} ms per pulse (median of {args.repeat} warm "
+        f"batches; {med_rust / (m * sonar.n_bins) * 1e9:.2f} ns per (leaf, bin) of wall time)"
+    )
     print(f"reference.simulate : {med_ref * 1e3:8.2f} ms per pulse")
-    print(f"speed-up: {med_ref / med_rust:.1f}x  (range over rounds: "
-          f"{min(r / f for r, f in zip(ref_t, rust_t)):.1f}x .. {max(r / f for r, f in zip(ref_t, rust_t)):.1f}x)")
+    ratios = [r / f for r, f in zip(ref_t, rust_t, strict=True)]
+    print(
+        f"speed-up: {med_ref / med_rust:.1f}x  (range over rounds: "
+        f"{min(ratios):.1f}x .. {max(ratios):.1f}x)"
+    )
     print(f"relative L2 error of the spectrum: {err:.2e}")
 
 

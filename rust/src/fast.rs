@@ -18,7 +18,7 @@
 
 use crate::error::{invalid, Result};
 use crate::kernel::{
-    self, cis_neg, lanes, paper_factor, paper_regime, NodeTables, PaperLeaf, PaperRegime, LANES,
+    cis_neg, lanes, paper_factor, paper_regime, NodeTables, PaperLeaf, PaperRegime, LANES,
 };
 use crate::leaf_model;
 use crate::leaf_model::{
@@ -285,8 +285,7 @@ fn node_values(
 /// One task's share: spread grids (P channels, interleaved re/im) and the exactly summed leaves.
 struct Partial {
     grid: Vec<f64>,
-    direct: Option<(Vec<f64>, Vec<f64>)>,
-    /// Leaves (indices into the chunk) left for a second pass.
+    /// Leaves (indices into the chunk, ascending) the interpolation cannot represent to tol.
     deferred: Vec<usize>,
 }
 
@@ -609,7 +608,7 @@ fn paper_batch<const ATTEN: bool>(
 }
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], defer: bool) -> Partial {
+fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
     let (p, glen, w) = (plan.p, plan.nufft.grid_len(), plan.nufft.w);
     let mut grid = vec![0.0; 2 * p * glen];
     let mut direct_ids: Vec<usize> = Vec::new();
@@ -680,30 +679,12 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], defer: bool)
             }
         }
     }
-    // Leaves the interpolation cannot represent to tol: deferred to a second pass, or summed
-    // exactly, in index order.
+    // Leaves the interpolation cannot represent to tol (ascending): the caller gives them a
+    // second pass or sums them exactly.
     direct_ids.sort_unstable();
-    if defer {
-        return Partial {
-            grid,
-            direct: None,
-            deferred: direct_ids,
-        };
-    }
-    let direct = if direct_ids.is_empty() {
-        None
-    } else {
-        let m_pad = sonar.tables.m_pad;
-        let (mut re, mut im) = (vec![0.0; m_pad], vec![0.0; m_pad]);
-        for &i in &direct_ids {
-            kernel::add_leaf(sonar, &terms[i], &mut re, &mut im);
-        }
-        Some((re, im))
-    };
     Partial {
         grid,
-        direct,
-        deferred: Vec::new(),
+        deferred: direct_ids,
     }
 }
 
@@ -755,7 +736,6 @@ fn fast_sum_fixed(
     let m = sonar.n_bins();
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = vec![0.0; 2 * p * glen];
-    let mut direct = (vec![0.0; sonar.tables.m_pad], vec![0.0; sonar.tables.m_pad]);
     let mut deferred: Vec<usize> = Vec::new();
     let mut offset = 0usize;
     let mut add = |part: Partial, len: usize| {
@@ -764,24 +744,27 @@ fn fast_sum_fixed(
         for (g, v) in grid.iter_mut().zip(&part.grid) {
             *g += v;
         }
-        if let Some((re, im)) = part.direct {
-            for j in 0..re.len() {
-                direct.0[j] += re[j];
-                direct.1[j] += im[j];
-            }
-        }
     };
     if terms.len() <= FAST_CHUNK {
-        add(spread_chunk(sonar, plan, terms, defer), terms.len());
+        add(spread_chunk(sonar, plan, terms), terms.len());
     } else {
         for batch in terms.chunks(FAST_CHUNK * 16) {
             let parts: Vec<(Partial, usize)> = batch
                 .par_chunks(FAST_CHUNK)
-                .map(|c| (spread_chunk(sonar, plan, c, defer), c.len()))
+                .map(|c| (spread_chunk(sonar, plan, c), c.len()))
                 .collect();
             parts.into_iter().for_each(|(p, len)| add(p, len));
         }
     }
+    // Leaves the interpolation cannot represent: returned for a second pass, or summed by the
+    // exact path (its fixed parallel chunks; the window is applied below, once, to both).
+    let direct = if defer || deferred.is_empty() {
+        (vec![0.0; m], vec![0.0; m])
+    } else {
+        let rest: Vec<LeafTerm> = deferred.iter().map(|&i| terms[i]).collect();
+        deferred.clear();
+        crate::spectrum::sum_terms_unwindowed(sonar, &rest)
+    };
     // One NUFFT per channel, then the Lagrange combination.
     let modes: Vec<Vec<Complex64>> = grid
         .par_chunks(2 * glen)

@@ -356,7 +356,7 @@ pub fn members(
         Search::Bvh => {
             let mut c = Vec::new();
             bvh_candidates(scene, sonar, pose, |i| c.push(i));
-            c.sort_unstable();
+            c.par_sort_unstable();
             c
         }
         Search::BruteForce => (0..scene.len() as u32).collect(),

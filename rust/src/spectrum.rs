@@ -64,6 +64,16 @@ pub fn band_spectrum(sonar: &Sonar, scene: &Scene, members: &[Member]) -> (Vec<f
 
 /// The windowed band spectrum of the given leaf terms, summed in their order.
 pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+    let (mut re, mut im) = sum_terms_unwindowed(sonar, terms);
+    for j in 0..re.len() {
+        re[j] *= sonar.window[j];
+        im[j] *= sonar.window[j];
+    }
+    (re, im)
+}
+
+/// The band spectrum of the given leaf terms without the window, summed in their order.
+pub fn sum_terms_unwindowed(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let m_pad = sonar.tables.m_pad;
     let mut re = vec![0.0; m_pad];
@@ -91,9 +101,5 @@ pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     }
     re.truncate(m);
     im.truncate(m);
-    for j in 0..m {
-        re[j] *= sonar.window[j];
-        im[j] *= sonar.window[j];
-    }
     (re, im)
 }
