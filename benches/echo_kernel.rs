@@ -35,14 +35,12 @@ fn terms(n: usize, rng: &mut Rng) -> Vec<LeafTerm> {
         .map(|_| {
             let range = rng.uniform(1.0, 10.0);
             let radius = rng.uniform(0.015, 0.025);
-            LeafTerm {
-                amp: 0.2 * rng.uniform(0.0, 1.0) / (range * range),
+            LeafTerm::new(
+                0.2 * rng.uniform(0.0, 1.0) / (range * range),
                 range,
-                beta: rng.uniform(0.0, std::f64::consts::FRAC_PI_2),
+                rng.uniform(0.0, std::f64::consts::FRAC_PI_2),
                 radius,
-                radius_pow_b: radius.powf(-0.9065),
-                radius_pow_p: radius.powf(0.3523),
-            }
+            )
         })
         .collect()
 }

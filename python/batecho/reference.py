@@ -139,7 +139,7 @@ def _grid(sonar: Sonar):
 
 
 # Section 4: leaf scattering ----------------------------------------------------------------
-def _leaf_paper(c: np.ndarray, beta: np.ndarray):
+def _leaf_paper(c: np.ndarray, beta: np.ndarray, cos_b=None, sin_b=None):
     A = 0.5003 * c**2 + 0.6867
     B = 0.3999 * c ** (-0.9065) + 0.9979
     L = np.maximum(0.0, A * np.cos(B * beta))
@@ -148,15 +148,17 @@ def _leaf_paper(c: np.ndarray, beta: np.ndarray):
     return L, psi
 
 
-def _leaf_physical_optics(c: np.ndarray, beta: np.ndarray):
-    x = 2.0 * c * np.sin(beta)
+def _leaf_physical_optics(c: np.ndarray, beta: np.ndarray, cos_b: np.ndarray, sin_b: np.ndarray):
+    # cos(beta) = |e . n| and sin(beta) = |e x n| from the geometry: the same values as the
+    # cosine and sine of beta, but accurate at grazing incidence
+    x = 2.0 * c * sin_b
     with np.errstate(invalid="ignore", divide="ignore"):
         jinc = np.where(x == 0.0, 1.0, 2.0 * j1(x) / x)  # 2 J1(x)/x, limit 1 at x = 0
-    L = c**2 / 2.0 * np.cos(beta) * np.abs(jinc)
+    L = c**2 / 2.0 * cos_b * np.abs(jinc)
     return L, np.full_like(L, -np.pi / 2)
 
 
-def _spectrum(sonar: Sonar, r, G, beta, a, f, w, chunk: int = 2048) -> np.ndarray:
+def _spectrum(sonar: Sonar, r, G, incidence, a, f, w, chunk: int = 2048) -> np.ndarray:
     """Y_k = w_k sum_i A_ki exp(j phi_ki) over the band bins."""
     v = sonar.sound_speed
     k = 2.0 * np.pi * f / v
@@ -165,11 +167,12 @@ def _spectrum(sonar: Sonar, r, G, beta, a, f, w, chunk: int = 2048) -> np.ndarra
     if sonar.absorption is not None:
         atm = sonar.absorption
         alpha = iso9613_alpha_db_per_m(f, atm.temperature_c, atm.relative_humidity, atm.pressure_pa)
+    beta, cos_b, sin_b = incidence
     Y = np.zeros(f.shape, dtype=np.complex128)
     for s in range(0, len(r), chunk):
-        ri, Gi, bi, ai = (x[s : s + chunk, None] for x in (r, G, beta, a))
+        ri, Gi, bi, ci, si, ai = (x[s : s + chunk, None] for x in (r, G, beta, cos_b, sin_b, a))
         c = k * ai
-        L, psi = model(c, bi)
+        L, psi = model(c, bi, ci, si)
         A = sonar.gain * Gi * L / k
         if sonar.spreading:
             A = A / ri**2
@@ -182,16 +185,16 @@ def _spectrum(sonar: Sonar, r, G, beta, a, f, w, chunk: int = 2048) -> np.ndarra
     return w * Y
 
 
-def _incidence(e: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """beta = angle(e, n) folded into [0, pi/2], via atan2(|e x n|, e . n)."""
+def _incidence(e: np.ndarray, n: np.ndarray):
+    """beta = angle(e, n) folded into [0, pi/2], via atan2(|e x n|, e . n); with
+    cos(beta) = |e . n| and sin(beta) = |e x n|."""
     cx = e[:, 1] * n[:, 2] - e[:, 2] * n[:, 1]
     cy = e[:, 2] * n[:, 0] - e[:, 0] * n[:, 2]
     cz = e[:, 0] * n[:, 1] - e[:, 1] * n[:, 0]
-    beta = np.arctan2(
-        np.sqrt(cx * cx + cy * cy + cz * cz),
-        e[:, 0] * n[:, 0] + e[:, 1] * n[:, 1] + e[:, 2] * n[:, 2],
-    )
-    return np.minimum(beta, np.pi - beta)
+    sin_b = np.sqrt(cx * cx + cy * cy + cz * cz)
+    cos_b = e[:, 0] * n[:, 0] + e[:, 1] * n[:, 1] + e[:, 2] * n[:, 2]
+    beta = np.arctan2(sin_b, cos_b)
+    return np.minimum(beta, np.pi - beta), np.minimum(np.abs(cos_b), 1.0), np.minimum(sin_b, 1.0)
 
 
 def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> Echoes:

@@ -249,13 +249,13 @@ fn node_values(
         LeafModel::PhysicalOptics => {
             // |2 J1(x)/x| is analytic and bell-shaped only before J1's first zero (x = 3.8317);
             // past it the factor has kinks and oscillates across the band: sum such leaves exactly.
-            let x_hi = 2.0 * sonar.tables.k[sonar.tables.m - 1] * t.radius * t.beta.sin();
+            let x_hi = 2.0 * sonar.tables.k[sonar.tables.m - 1] * t.radius * t.sin_beta;
             if !(x_hi < J1_FIRST_ZERO) {
                 return Route::Direct;
             }
             for q in 0..p {
                 let k = nt.k[q];
-                let (l, psi) = leaf_model::physical_optics(k * t.radius, t.beta);
+                let (l, psi) = leaf_model::physical_optics(k * t.radius, t.cos_beta, t.sin_beta);
                 let mut amp = t.amp * l / k;
                 if !nt.atten.is_empty() {
                     amp *= (-nt.atten[q] * t.range).exp();
@@ -796,7 +796,6 @@ fn fast_sum_fixed(
 mod tests {
     use super::*;
     use crate::absorption::Atmosphere;
-    use crate::leaf_model::{PAPER_BP, PAPER_PP};
     use crate::sonar::SonarParams;
     use crate::spectrum::sum_terms;
 
@@ -821,14 +820,12 @@ mod tests {
             .map(|_| {
                 let radius = (0.0005f64.ln() + u() * (0.3f64.ln() - 0.0005f64.ln())).exp();
                 let range = 0.05 + u() * 10.1;
-                LeafTerm {
-                    amp: 0.2 / (range * range),
+                LeafTerm::new(
+                    0.2 / (range * range),
                     range,
-                    beta: u() * std::f64::consts::FRAC_PI_2,
+                    u() * std::f64::consts::FRAC_PI_2,
                     radius,
-                    radius_pow_b: radius.powf(PAPER_BP),
-                    radius_pow_p: radius.powf(PAPER_PP),
-                }
+                )
             })
             .collect()
     }

@@ -224,14 +224,14 @@ pub fn add_leaf_scalar(
     re: &mut [f64],
     im: &mut [f64],
 ) {
-    let model = match sonar.params.leaf_model {
-        LeafModel::Paper => leaf_model::paper,
-        LeafModel::PhysicalOptics => leaf_model::physical_optics,
+    let model = |c: f64| match sonar.params.leaf_model {
+        LeafModel::Paper => leaf_model::paper(c, t.beta),
+        LeafModel::PhysicalOptics => leaf_model::physical_optics(c, t.cos_beta, t.sin_beta),
     };
     let tab = &sonar.tables;
     for j in 0..tab.m {
         let k = tab.k[j];
-        let (l, psi) = model(k * t.radius, t.beta);
+        let (l, psi) = model(k * t.radius);
         let mut amp = t.amp * l / k;
         if !tab.atten.is_empty() {
             amp *= (-tab.atten[j] * t.range).exp();
@@ -647,14 +647,7 @@ mod tests {
     }
 
     fn term(amp: f64, range: f64, beta: f64, radius: f64) -> LeafTerm {
-        LeafTerm {
-            amp,
-            range,
-            beta,
-            radius,
-            radius_pow_b: radius.powf(PAPER_BP),
-            radius_pow_p: radius.powf(PAPER_PP),
-        }
+        LeafTerm::new(amp, range, beta, radius)
     }
 
     fn kink_free(s: &Sonar, t: &LeafTerm) -> bool {

@@ -39,9 +39,11 @@ pub fn jinc(x: f64) -> f64 {
 }
 
 /// Physical optics (Kirchhoff) disk: `L = c^2/2 cos(beta) |2 J1(x)/x|`, `x = 2 c sin(beta)`,
-/// `psi = -pi/2`. At normal incidence the scattering amplitude `L / k` is `k a^2 / 2`.
+/// `psi = -pi/2`, from `cos(beta)` and `sin(beta)` (taken from the geometry: accurate at
+/// grazing incidence, where `cos` of a computed angle is not). At normal incidence the
+/// scattering amplitude `L / k` is `k a^2 / 2`.
 #[inline]
-pub fn physical_optics(c: f64, beta: f64) -> (f64, f64) {
-    let x = 2.0 * c * beta.sin();
-    (c * c / 2.0 * beta.cos() * jinc(x).abs(), -FRAC_PI_2)
+pub fn physical_optics(c: f64, cos_beta: f64, sin_beta: f64) -> (f64, f64) {
+    let x = 2.0 * c * sin_beta;
+    (c * c / 2.0 * cos_beta * jinc(x).abs(), -FRAC_PI_2)
 }

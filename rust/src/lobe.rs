@@ -7,6 +7,8 @@ use crate::error::{Error, Result};
 use crate::pose::{cross, dot, norm, sub, Pose, V3};
 use crate::scene::Scene;
 use crate::sonar::{LobeRule, Sonar, TooClose};
+use crate::vmath::{atan2_fast, exp_nonpos};
+use multiversion::multiversion;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -322,14 +324,21 @@ pub struct Member {
     pub range: f64,
     pub gain: f64,
     pub beta: f64,
+    /// `cos(beta) = |e . n|` and `sin(beta) = |e x n|`, straight from the geometry (well
+    /// conditioned at normal and grazing incidence, where `cos(atan2(...))` is not).
+    pub cos_beta: f64,
+    pub sin_beta: f64,
 }
 
-/// Incidence angle between the unit direction `e` and the unit normal `n`, folded to [0, pi/2].
-/// Computed as `atan2(|e x n|, e . n)`, which stays accurate at normal and grazing incidence.
+/// Incidence angle between the unit direction `e` and the unit normal `n`, folded to [0, pi/2],
+/// with its cosine `|e . n|` and sine `|e x n|`. The angle is `atan2(|e x n|, e . n)`, which
+/// stays accurate at normal and grazing incidence.
 #[inline]
-pub fn incidence_angle(e: V3, n: V3) -> f64 {
-    let b = norm(cross(e, n)).atan2(dot(e, n));
-    b.min(PI - b)
+pub fn incidence(e: V3, n: V3) -> (f64, f64, f64) {
+    let s = norm(cross(e, n));
+    let c = dot(e, n);
+    let b = s.atan2(c);
+    (b.min(PI - b), c.abs().min(1.0), s.min(1.0))
 }
 
 /// How the candidates are found; the result is the same either way.
@@ -341,6 +350,132 @@ pub enum Search {
 
 /// Candidates per parallel task of the exact test.
 const CLASSIFY_CHUNK: usize = 2048;
+
+/// Per chunk of candidates: the counting leaves, and the first too-close leaf (index, range).
+type Part = (Vec<Member>, Option<(usize, f64)>);
+
+/// Relative window around the detectable reach in which the fast decision defers to the libm
+/// test. The fast gain errs by ~1e-13 relative at worst (exp of arguments up to 700).
+const AMBIGUOUS: f64 = 1e-11;
+
+/// Leaves per vector block of the fast test.
+const CB: usize = 8;
+
+/// The exact test for a chunk of candidates, eight at a time. Range, direction and the cone
+/// test use the same f64 operations as [`classify`] (so they decide identically); azimuth,
+/// elevation, gain and incidence use the polynomial `atan2` and `exp` of [`crate::vmath`]
+/// (~4e-16). A leaf whose range lies within [`AMBIGUOUS`] of its detectable reach is decided
+/// by [`classify`] itself (libm), so every decision equals the scalar test's.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn classify_many(scene: &Scene, sonar: &Sonar, pose: &Pose, chunk: &[u32]) -> Part {
+    let mut out = Vec::with_capacity(chunk.len());
+    let mut too_close = None;
+    let p = pose.position;
+    let (d, u, l) = (pose.forward, pose.up, pose.left);
+    let sp = &sonar.params;
+    let detectable = matches!(sp.lobe, LobeRule::Detectable { .. });
+    // Pass 1, cheap: the range of every candidate (the same operations as `classify`).
+    let mut near: Vec<(u32, f64)> = Vec::with_capacity(chunk.len() / 4 + 8);
+    for &i in chunk {
+        let c = scene.centers[i as usize];
+        let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+        let r = (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt();
+        if !(r >= sp.min_range) {
+            if too_close.is_none() {
+                too_close = Some((i as usize, r));
+            }
+        } else if r <= sonar.range_limit {
+            near.push((i, r));
+        }
+    }
+    // Pass 2, eight at a time: direction, angles, gain, incidence.
+    for block in near.chunks(CB) {
+        let n = block.len();
+        let at = |k: usize| block[k.min(n - 1)];
+        let mut e = [[0.0; 3]; CB];
+        let (mut ed, mut el_, mut eu) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+        for k in 0..CB {
+            let (i, r) = at(k);
+            let c = scene.centers[i as usize];
+            let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+            e[k] = [dx[0] / r, dx[1] / r, dx[2] / r];
+            ed[k] = e[k][0] * d[0] + e[k][1] * d[1] + e[k][2] * d[2];
+            el_[k] = e[k][0] * l[0] + e[k][1] * l[1] + e[k][2] * l[2];
+            eu[k] = e[k][0] * u[0] + e[k][1] * u[1] + e[k][2] * u[2];
+        }
+        let (mut q_tx, mut q_rx, mut beta) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+        let (mut cos_b, mut sin_b) = ([0.0; CB], [0.0; CB]);
+        let quad =
+            |b: &crate::beam::GaussianBeam, az: f64, el: f64| b.quad(b.delta_az(az), el - b.el0);
+        for k in 0..CB {
+            let az = atan2_fast(el_[k], ed[k]);
+            let el = atan2_fast(eu[k], (ed[k] * ed[k] + el_[k] * el_[k]).sqrt());
+            q_tx[k] = quad(&sp.emitter, az, el);
+            q_rx[k] = sp.receiver.as_ref().map_or(q_tx[k], |rx| quad(rx, az, el));
+            let nv = scene.normals[at(k).0 as usize];
+            let cr = cross(e[k], nv);
+            let b = (cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]).sqrt();
+            let en = e[k][0] * nv[0] + e[k][1] * nv[1] + e[k][2] * nv[2];
+            let bt = atan2_fast(b, en);
+            beta[k] = bt.min(PI - bt);
+            cos_b[k] = en.abs().min(1.0);
+            sin_b[k] = b.min(1.0);
+        }
+        // Gains: the polynomial exp holds down to exp(-700); beyond, libm (subnormal or 0).
+        let (mut s_tx, mut s_rx) = ([0.0; CB], [0.0; CB]);
+        for k in 0..CB {
+            s_tx[k] = exp_nonpos(-q_tx[k]);
+            s_rx[k] = exp_nonpos(-q_rx[k]);
+        }
+        for k in 0..n {
+            if q_tx[k] > 700.0 {
+                s_tx[k] = (-q_tx[k]).exp();
+            }
+            if q_rx[k] > 700.0 {
+                s_rx[k] = (-q_rx[k]).exp();
+            }
+        }
+        let rx_amp = sonar.receiver().amplitude;
+        for k in 0..n {
+            let (i, r) = block[k];
+            if !detectable && ed[k] < sonar.cos_half_angle {
+                continue;
+            }
+            let g = (sp.emitter.amplitude * s_tx[k]) * (rx_amp * s_rx[k]);
+            if detectable {
+                let reach = (sonar.reach_sq_per_gain * g).sqrt();
+                if r > reach * (1.0 + AMBIGUOUS) {
+                    continue;
+                }
+                if !(r <= reach * (1.0 - AMBIGUOUS)) {
+                    // on the boundary: the libm test decides, exactly as the reference does
+                    if let Decision::In(v) = classify(sonar, pose, scene.centers[i as usize]) {
+                        let (beta, cos_beta, sin_beta) =
+                            incidence(v.dir, scene.normals[i as usize]);
+                        out.push(Member {
+                            index: i,
+                            range: v.range,
+                            gain: v.gain,
+                            beta,
+                            cos_beta,
+                            sin_beta,
+                        });
+                    }
+                    continue;
+                }
+            }
+            out.push(Member {
+                index: i,
+                range: r,
+                gain: g,
+                beta: beta[k],
+                cos_beta: cos_b[k],
+                sin_beta: sin_b[k],
+            });
+        }
+    }
+    (out, too_close)
+}
 
 /// The counting leaves for one pose, sorted by leaf index. `pose_index` only labels errors.
 /// The exact test runs on the candidates in parallel chunks (in index order, so the result does
@@ -361,30 +496,7 @@ pub fn members(
         }
         Search::BruteForce => (0..scene.len() as u32).collect(),
     };
-    // Per chunk: the counting leaves, and the first too-close leaf (index, range).
-    type Part = (Vec<Member>, Option<(usize, f64)>);
-    let classify_chunk = |chunk: &[u32]| -> Part {
-        let mut out = Vec::new();
-        let mut too_close = None;
-        for &i in chunk {
-            let iu = i as usize;
-            match classify(sonar, pose, scene.centers[iu]) {
-                Decision::Out => {}
-                Decision::TooClose(r) => {
-                    if too_close.is_none() {
-                        too_close = Some((iu, r));
-                    }
-                }
-                Decision::In(v) => out.push(Member {
-                    index: i,
-                    range: v.range,
-                    gain: v.gain,
-                    beta: incidence_angle(v.dir, scene.normals[iu]),
-                }),
-            }
-        }
-        (out, too_close)
-    };
+    let classify_chunk = |chunk: &[u32]| -> Part { classify_many(scene, sonar, pose, chunk) };
     let parts: Vec<Part> = if candidates.len() <= CLASSIFY_CHUNK {
         vec![classify_chunk(&candidates)]
     } else {

@@ -23,10 +23,30 @@ pub struct LeafTerm {
     pub amp: f64,
     pub range: f64,
     pub beta: f64,
+    /// `cos(beta)`, `sin(beta)` from the geometry (see [`Member`]).
+    pub cos_beta: f64,
+    pub sin_beta: f64,
     pub radius: f64,
     /// `radius^-0.9065`, `radius^0.3523` (paper model).
     pub radius_pow_b: f64,
     pub radius_pow_p: f64,
+}
+
+impl LeafTerm {
+    /// A term from its amplitude, range (m), incidence angle (rad) and radius (m); the derived
+    /// fields are computed.
+    pub fn new(amp: f64, range: f64, beta: f64, radius: f64) -> Self {
+        LeafTerm {
+            amp,
+            range,
+            beta,
+            cos_beta: beta.cos(),
+            sin_beta: beta.sin(),
+            radius,
+            radius_pow_b: radius.powf(crate::leaf_model::PAPER_BP),
+            radius_pow_p: radius.powf(crate::leaf_model::PAPER_PP),
+        }
+    }
 }
 
 pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
@@ -40,6 +60,8 @@ pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
         amp,
         range: m.range,
         beta: m.beta,
+        cos_beta: m.cos_beta,
+        sin_beta: m.sin_beta,
         radius: scene.radii[i],
         radius_pow_b: scene.radius_pow_b[i],
         radius_pow_p: scene.radius_pow_p[i],
