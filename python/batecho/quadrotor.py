@@ -41,7 +41,15 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation, Slerp
 
-from ._validate import finite, finite_scalar, positive_scalar, readonly, real_array, vectors
+from ._validate import (
+    crosses,
+    finite,
+    finite_scalar,
+    positive_scalar,
+    readonly,
+    real_array,
+    vectors,
+)
 from .poses import Poses
 from .trajectories import Trajectory
 
@@ -66,17 +74,6 @@ def _vee(S: np.ndarray) -> np.ndarray:
     """vee of the antisymmetric part of a (..., 3, 3) matrix."""
     return 0.5 * np.stack(
         [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]],
-        axis=-1,
-    )
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack(
-        [
-            a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
-            a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-            a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
-        ],
         axis=-1,
     )
 
@@ -296,13 +293,13 @@ def _flat_reference(traj: Trajectory, t: np.ndarray, g: float) -> dict[str, np.n
     perp = np.stack([-sn, c, z], axis=-1)
     db1d = dpsi[:, None] * perp
     ddb1d = ddpsi[:, None] * perp - (dpsi * dpsi)[:, None] * b1d
-    w = _cross(b3, b1d)
-    dw = _cross(db3, b1d) + _cross(b3, db1d)
-    ddw = _cross(ddb3, b1d) + 2.0 * _cross(db3, db1d) + _cross(b3, ddb1d)
+    w = crosses(b3, b1d)
+    dw = crosses(db3, b1d) + crosses(b3, db1d)
+    ddw = crosses(ddb3, b1d) + 2.0 * crosses(db3, db1d) + crosses(b3, ddb1d)
     b2, db2, ddb2 = _unit_derivs(w, dw, ddw)
-    b1 = _cross(b2, b3)
-    db1 = _cross(db2, b3) + _cross(b2, db3)
-    ddb1 = _cross(ddb2, b3) + 2.0 * _cross(db2, db3) + _cross(b2, ddb3)
+    b1 = crosses(b2, b3)
+    db1 = crosses(db2, b3) + crosses(b2, db3)
+    ddb1 = crosses(ddb2, b3) + 2.0 * crosses(db2, db3) + crosses(b2, ddb3)
     R = np.stack([b1, b2, b3], axis=-1)
     dR = np.stack([db1, db2, db3], axis=-1)
     ddR = np.stack([ddb1, ddb2, ddb3], axis=-1)
