@@ -297,7 +297,7 @@ fn simulate_py<'py>(
     };
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let out = py
-        .detach(move || simulate::simulate_with(&sc, &so, &poses, impulse, search, method))
+        .detach(move || simulate::simulate(&sc, &so, &poses, impulse, search, method))
         .map_err(to_py)?;
     let p = out.n_leaves.len();
     let m = out.n_bins;

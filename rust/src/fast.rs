@@ -17,9 +17,7 @@
 //! physical-optics leaves with diffraction nulls in the band) is summed exactly instead.
 
 use crate::error::{invalid, Result};
-use crate::kernel::{
-    cis_neg, lanes, paper_factor, paper_regime, NodeTables, PaperLeaf, PaperRegime, LANES,
-};
+use crate::kernel::{cis_neg, paper_regime, NodeTables, PaperRegime, LANES};
 use crate::leaf_model;
 use crate::leaf_model::{
     PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1, PAPER_BETA_REF, PAPER_P0, PAPER_P1, PAPER_PSI0,
@@ -200,9 +198,10 @@ enum Route {
     Spread,
 }
 
-/// The leaf factor at the nodes, into `fr`, `fi` (length >= P padded); decides the route.
+/// The physical-optics leaf factor at the nodes, into `fr`, `fi`; decides the route. (The
+/// paper model goes through [`paper_batch`], eight leaves at a time.)
 #[inline(always)]
-fn node_values(
+fn po_node_values(
     sonar: &Sonar,
     plan: &FastPlan,
     t: &LeafTerm,
@@ -211,60 +210,22 @@ fn node_values(
 ) -> Route {
     let nt = &plan.nodes;
     let p = plan.p;
-    match sonar.params.leaf_model {
-        LeafModel::Paper => {
-            match paper_regime(&sonar.tables, t) {
-                PaperRegime::Zero => return Route::Skip,
-                PaperRegime::Smooth => {}
-                PaperRegime::Kinked | PaperRegime::OutOfDomain => return Route::Direct,
-            }
-            let lf = PaperLeaf::new(t);
-            let atten_on = !nt.atten.is_empty();
-            for q0 in (0..nt.k.len()).step_by(LANES) {
-                let (mut r, mut i) = ([0.0; LANES], [0.0; LANES]);
-                let atten = if atten_on {
-                    &nt.atten[q0..q0 + LANES]
-                } else {
-                    &[][..]
-                };
-                let args = (
-                    lanes(&nt.k, q0),
-                    lanes(&nt.inv_k, q0),
-                    lanes(&nt.kp, q0),
-                    lanes(&nt.kq, q0),
-                );
-                if atten_on {
-                    paper_factor::<true>(
-                        &lf, args.0, args.1, args.2, args.3, atten, &mut r, &mut i,
-                    );
-                } else {
-                    paper_factor::<false>(
-                        &lf, args.0, args.1, args.2, args.3, atten, &mut r, &mut i,
-                    );
-                }
-                fr[q0..q0 + LANES].copy_from_slice(&r);
-                fi[q0..q0 + LANES].copy_from_slice(&i);
-            }
+    // |2 J1(x)/x| is analytic and bell-shaped only before J1's first zero (x = 3.8317);
+    // past it the factor has kinks and oscillates across the band: sum such leaves exactly.
+    let x_hi = 2.0 * sonar.tables.k[sonar.tables.m - 1] * t.radius * t.sin_beta;
+    if !(x_hi < J1_FIRST_ZERO) {
+        return Route::Direct;
+    }
+    for q in 0..p {
+        let k = nt.k[q];
+        let (l, psi) = leaf_model::physical_optics(k * t.radius, t.cos_beta, t.sin_beta);
+        let mut amp = t.amp * l / k;
+        if !nt.atten.is_empty() {
+            amp *= (-nt.atten[q] * t.range).exp();
         }
-        LeafModel::PhysicalOptics => {
-            // |2 J1(x)/x| is analytic and bell-shaped only before J1's first zero (x = 3.8317);
-            // past it the factor has kinks and oscillates across the band: sum such leaves exactly.
-            let x_hi = 2.0 * sonar.tables.k[sonar.tables.m - 1] * t.radius * t.sin_beta;
-            if !(x_hi < J1_FIRST_ZERO) {
-                return Route::Direct;
-            }
-            for q in 0..p {
-                let k = nt.k[q];
-                let (l, psi) = leaf_model::physical_optics(k * t.radius, t.cos_beta, t.sin_beta);
-                let mut amp = t.amp * l / k;
-                if !nt.atten.is_empty() {
-                    amp *= (-nt.atten[q] * t.range).exp();
-                }
-                let (s, c) = (-psi).sin_cos();
-                fr[q] = amp * c;
-                fi[q] = amp * s;
-            }
-        }
+        let (s, c) = (-psi).sin_cos();
+        fr[q] = amp * c;
+        fi[q] = amp * s;
     }
     let mut peak = 0.0f64;
     let (mut lr, mut li) = (0.0, 0.0);
@@ -655,7 +616,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             let mut wd = [0.0; 2 * MAX_W];
             let mut st = [(0.0, 0.0); MAX_NODES];
             for (idx, t) in terms.iter().enumerate() {
-                match node_values(sonar, plan, t, &mut fr, &mut fi) {
+                match po_node_values(sonar, plan, t, &mut fr, &mut fi) {
                     Route::Skip => {}
                     Route::Direct => direct_ids.push(idx),
                     Route::Spread => {

@@ -268,17 +268,17 @@ impl NodeTables {
 }
 
 /// Per-leaf constants of the paper model's vector paths.
-pub(crate) struct PaperLeaf {
-    pub(crate) amp: f64,
-    pub(crate) range: f64,
-    pub(crate) beta: f64,
-    pub(crate) a: f64,
-    pub(crate) ap: f64,
-    pub(crate) aq: f64,
+struct PaperLeaf {
+    amp: f64,
+    range: f64,
+    beta: f64,
+    a: f64,
+    ap: f64,
+    aq: f64,
 }
 
 impl PaperLeaf {
-    pub(crate) fn new(t: &LeafTerm) -> Self {
+    fn new(t: &LeafTerm) -> Self {
         PaperLeaf {
             amp: t.amp,
             range: t.range,
@@ -320,7 +320,7 @@ pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
 /// of lanes, from the per-bin tables `k`, `1/k`, `k^-0.9065`, `k^0.3523` (and `atten`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn paper_factor<const ATTEN: bool>(
+fn paper_factor<const ATTEN: bool>(
     lf: &PaperLeaf,
     k: &[f64; LANES],
     inv_k: &[f64; LANES],
@@ -414,7 +414,7 @@ fn accumulate_block(
     }
 }
 
-pub(crate) fn lanes(v: &[f64], j0: usize) -> &[f64; LANES] {
+fn lanes(v: &[f64], j0: usize) -> &[f64; LANES] {
     v[j0..j0 + LANES]
         .try_into()
         .expect("tables are padded to LANES")

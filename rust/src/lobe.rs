@@ -165,13 +165,9 @@ impl AngularBound {
     }
 }
 
-/// Conservative test of the box `[lo, hi]` against the lobe of this pose.
-pub fn test_box(sonar: &Sonar, pose: &Pose, lo: V3, hi: V3) -> BoxTest {
-    test_box_with(sonar, pose, None, lo, hi)
-}
-
-/// [`test_box`] with an optional cheap angular pre-test (see [`AngularBound`]).
-pub fn test_box_with(
+/// Conservative test of the box `[lo, hi]` against the lobe of this pose, with an optional
+/// cheap angular pre-test (see [`AngularBound`]).
+pub fn test_box(
     sonar: &Sonar,
     pose: &Pose,
     bound: Option<&AngularBound>,
@@ -299,7 +295,7 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
         let node = &bvh.nodes[ni as usize];
         let inside = inside || {
             let (lo, hi) = node_box(ni as usize);
-            match test_box_with(sonar, pose, bound.as_ref(), lo, hi) {
+            match test_box(sonar, pose, bound.as_ref(), lo, hi) {
                 BoxTest::Outside => continue,
                 BoxTest::Partial => false,
                 BoxTest::Inside => true,

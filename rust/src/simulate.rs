@@ -91,18 +91,8 @@ pub fn cost_fast(n: usize, m: usize, plan: &FastPlan) -> f64 {
         + 2.0 * p * m as f64
 }
 
-/// Echoes by the exact method.
+/// Echoes of every pose by `method`, poses in parallel.
 pub fn simulate(
-    scene: &Scene,
-    sonar: &Sonar,
-    poses: &[Pose],
-    with_impulse: bool,
-    search: Search,
-) -> Result<Echoes> {
-    simulate_with(scene, sonar, poses, with_impulse, search, Method::Exact)
-}
-
-pub fn simulate_with(
     scene: &Scene,
     sonar: &Sonar,
     poses: &[Pose],

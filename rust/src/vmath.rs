@@ -56,12 +56,6 @@ pub fn sin_small_k<const K: usize>(y: f64) -> f64 {
     y * horner::<K>(&SIN_C, y * y)
 }
 
-/// `sin(y)` for |y| <= pi/2 + 0.01: Taylor series to y^23 (truncation < 1e-20).
-#[inline(always)]
-pub fn sin_small(y: f64) -> f64 {
-    sin_small_k::<12>(y)
-}
-
 /// `cos(x)` for x in [0, pi]: `-sin(x - pi/2)` with pi/2 in two parts.
 #[inline(always)]
 pub fn cos_0_pi(x: f64) -> f64 {
@@ -155,35 +149,6 @@ pub fn erf(z: f64) -> f64 {
     erf_in(erf_interval(z), z)
 }
 
-/// `erf(z)` for any finite z, with the table row chosen per lane (a gather), for blocks whose
-/// lanes do not share an interval.
-#[inline(always)]
-pub fn erf_lanes<const L: usize>(z: &[f64; L]) -> [f64; L] {
-    let mut a = [0.0; L];
-    let mut u = [0.0; L];
-    let mut idx = [0usize; L];
-    for i in 0..L {
-        a[i] = z[i].abs().min(ERF_WIDTH * (ERF_INTERVALS as f64 + 1.0));
-        let t = (a[i] * (1.0 / ERF_WIDTH)).min(ERF_INTERVALS as f64);
-        idx[i] = (t as usize).min(ERF_INTERVALS); // provably in bounds: no panic path
-        u[i] = a[i] - (idx[i] as f64 + 0.5) * ERF_WIDTH;
-    }
-    let mut p = [0.0; L];
-    for i in 0..L {
-        p[i] = ERF_TAYLOR[idx[i]][ERF_DEGREE];
-    }
-    for k in (0..ERF_DEGREE).rev() {
-        for i in 0..L {
-            p[i] = p[i].mul_add(u[i], ERF_TAYLOR[idx[i]][k]);
-        }
-    }
-    let mut out = [0.0; L];
-    for i in 0..L {
-        out[i] = p[i].copysign(z[i]);
-    }
-    out
-}
-
 /// `erf(z)` for any finite z without table lookups (for lanes with unrelated arguments):
 /// `1 - exp(-z^2) erfcx(|z|)`, erfcx by its Chebyshev series on [0, 6] (Clenshaw), erf = 1
 /// beyond 6. Absolute error about 3e-16.
@@ -246,32 +211,6 @@ pub fn erf_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> [f64; L] 
         out[j] = e.copysign(z[j]);
     }
     out
-}
-
-/// [`erf_cheb`] over a whole slice, coefficient loop outermost: every element is an
-/// independent recurrence, so the loop is throughput-bound rather than latency-bound.
-#[inline(always)]
-pub fn erf_cheb_slice<const N: usize>(z: &[f64; N], out: &mut [f64; N]) {
-    let mut t = [0.0; N];
-    let mut b1 = [0.0; N];
-    let mut b2 = [0.0; N];
-    for j in 0..N {
-        t[j] = z[j].abs().min(6.0) * (1.0 / 3.0) - 1.0;
-    }
-    for &c in ERFCX_CHEB[1..].iter().rev() {
-        for j in 0..N {
-            let b0 = (2.0 * t[j]).mul_add(b1[j], c - b2[j]);
-            b2[j] = b1[j];
-            b1[j] = b0;
-        }
-    }
-    for j in 0..N {
-        let a = z[j].abs().min(6.0);
-        let erfcx = t[j].mul_add(b1[j], ERFCX_CHEB[0] - b2[j]);
-        let e = 1.0 - exp_nonpos(-(a * a)) * erfcx;
-        let e = if z[j].abs() >= 6.0 { 1.0 } else { e };
-        out[j] = e.copysign(z[j]);
-    }
 }
 
 /// `atan2(y, x)` for finite arguments, branch-free (selects only): reduction to
@@ -420,15 +359,6 @@ mod tests {
         for i in 0..16 {
             assert_eq!(e[i], erf_cheb(z[i]));
             assert_eq!(e28[i], erf_cheb_n::<28>(z[i]));
-        }
-    }
-
-    #[test]
-    fn erf_lanes_matches_erf() {
-        let z: [f64; 8] = [-7.0, -1.3, -0.1, 0.0, 0.24, 2.6, 5.99, 1e300];
-        let e = erf_lanes(&z);
-        for i in 0..8 {
-            assert_eq!(e[i], erf(z[i]));
         }
     }
 
