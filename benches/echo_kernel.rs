@@ -1,11 +1,15 @@
 //! Criterion benchmarks of the echo kernel (`cargo bench`):
 //! - the spectrum kernel for 1e3, 1e4, 1e5 leaves at 1201 bins (MODEL.md defaults);
-//! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force.
+//! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force;
+//! - one whole fast pulse (lobe query and spectrum, tol 1e-6) with 1e5 and 1e6 leaves in the
+//!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first.
 
-use batecho::fast::{fast_sum_terms, FastPlan};
+use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
 use batecho::lobe::{members, Search};
 use batecho::pose::Pose;
+use batecho::pulse::{candidates, fast_pulse};
 use batecho::scene::Scene;
+use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
 use batecho::spectrum::{sum_terms, LeafTerm};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -122,5 +126,63 @@ fn bench_fast(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_spectrum, bench_fast, bench_lobe);
+/// `n` leaves uniform in x in [1, 9.5] m, y, z in [-2, 2] m, radius N(2, 0.2) cm, random
+/// normals (the scene of `benches/speed_vs_error.py`); every leaf lies in a 75-degree cone.
+fn box_scene(n: usize) -> Scene {
+    let mut rng = Rng(7);
+    let mut normal = || {
+        let u = rng.uniform(1e-300, 1.0);
+        let v = rng.uniform(0.0, 1.0);
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    };
+    let mut centers = Vec::with_capacity(n);
+    let mut normals = Vec::with_capacity(n);
+    let mut radii = Vec::with_capacity(n);
+    for _ in 0..n {
+        let v = [normal(), normal(), normal()];
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        normals.push([v[0] / l, v[1] / l, v[2] / l]);
+        radii.push(0.02 + 0.002 * normal());
+    }
+    let mut rng = Rng(11);
+    for _ in 0..n {
+        centers.push([
+            rng.uniform(1.0, 9.5),
+            rng.uniform(-2.0, 2.0),
+            rng.uniform(-2.0, 2.0),
+        ]);
+    }
+    Scene::new(centers, normals, radii).unwrap()
+}
+
+fn bench_pulse(c: &mut Criterion) {
+    let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+    p.lobe = LobeRule::Cone {
+        half_angle: 75f64.to_radians(),
+    };
+    let s = Sonar::new(p).unwrap();
+    let plan = FastPlan::new(&s, 1e-6).unwrap();
+    let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+    let mut g = c.benchmark_group("pulse_fast_tol1e-6");
+    g.sample_size(10);
+    for &n in &[100_000usize, 1_000_000] {
+        let scene = box_scene(n);
+        assert_eq!(members(&scene, &s, &pose, 0, Search::Bvh).unwrap().len(), n);
+        g.bench_function(BenchmarkId::new("fused", n), |b| {
+            b.iter(|| {
+                let cands = candidates(&scene, &s, &pose, Search::Bvh);
+                black_box(fast_pulse(&scene, &s, &plan, &pose, 0, &cands).unwrap())
+            })
+        });
+        g.bench_function(BenchmarkId::new("members_then_spectrum", n), |b| {
+            b.iter(|| {
+                let mem = members(&scene, &s, &pose, 0, Search::Bvh).unwrap();
+                black_box(fast_band_spectrum(&s, &plan, &scene, &mem))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_spectrum, bench_fast, bench_lobe, bench_pulse);
 criterion_main!(benches);

@@ -28,6 +28,16 @@ SCRIPT = textwrap.dedent(
             out[key + "-spec"] = e.spectrum
             out[key + "-imp"] = e.impulse
             out[key + "-n"] = e.n_leaves
+    # Enough leaves for the fused fast pulse's parallel chunks and its node-count choice.
+    rng = np.random.default_rng(5)
+    big = batecho.Leaves(np.column_stack([rng.uniform(1, 9, 40000), rng.uniform(-2, 2, 40000),
+                                          rng.uniform(-2, 2, 40000)]),
+                         rng.normal(size=(40000, 3)), rng.normal(0.02, 0.002, 40000))
+    cone = batecho.Sonar(lobe="cone", cone_half_angle_deg=60.0)
+    for tol in (1e-6, 1e-12):
+        e = batecho.simulate(big, cone, poses, method="fast", tol=tol)
+        out[f"fast-{tol}-spec"] = e.spectrum
+        out[f"fast-{tol}-n"] = e.n_leaves
     np.savez(sys.argv[1], **out)
     """
 )
@@ -47,6 +57,7 @@ def test_results_are_bit_identical_with_one_and_two_threads(tmp_path):
     for k in one:
         assert one[k].tobytes() == two[k].tobytes(), k
     assert one["paper-False-n"].min() > 256  # several leaf chunks per pose
+    assert one["fast-1e-06-n"].min() > 20000  # several fused chunks per pose
 
 
 def test_repeated_calls_are_bit_identical():

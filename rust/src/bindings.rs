@@ -347,14 +347,19 @@ fn lobe_members<'py>(
     let search = search_from(search)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let pose = poses[0];
-    let mem = py
-        .detach(move || lobe::members(&sc, &so, &pose, 0, search))
+    let ids = py
+        .detach(move || {
+            lobe::members(&sc, &so, &pose, 0, search).map(|mem| {
+                let mut ids: Vec<i64> = mem
+                    .iter()
+                    .map(|m| sc.ids[m.index as usize] as i64)
+                    .collect();
+                ids.sort_unstable();
+                ids
+            })
+        })
         .map_err(to_py)?;
-    Ok(mem
-        .iter()
-        .map(|m| m.index as i64)
-        .collect::<Vec<_>>()
-        .into_pyarray(py))
+    Ok(ids.into_pyarray(py))
 }
 
 /// Load an OBJ mesh (see `batecho.load_obj`): `(leaf_centers (n,3), leaf_normals (n,3),

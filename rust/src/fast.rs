@@ -66,7 +66,7 @@ pub struct FastPlan {
     /// Number of Chebyshev nodes (channels).
     pub p: usize,
     /// Tables at the nodes (band-bin positions), padded to a multiple of `LANES`.
-    nodes: NodeTables,
+    pub(crate) nodes: NodeTables,
     /// `c_{P-1} = sum_q cheb_last[q] F_q`.
     cheb_last: Vec<f64>,
     /// `l_q(t_m)`, row-major (M, P).
@@ -243,6 +243,40 @@ fn po_node_values(
     Route::Spread
 }
 
+/// Spread one physical-optics leaf; false when its factor cannot be interpolated to tol (the
+/// caller sums it exactly).
+#[inline(always)]
+pub(crate) fn po_leaf(sonar: &Sonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [f64]) -> bool {
+    let (p, glen, w) = (plan.p, plan.nufft.grid_len(), plan.nufft.w);
+    let sp = &sonar.params;
+    let (mut fr, mut fi) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
+    match po_node_values(sonar, plan, t, &mut fr, &mut fi) {
+        Route::Skip => true,
+        Route::Direct => false,
+        Route::Spread => {
+            let mut wts = [0.0; MAX_W];
+            let mut wd = [0.0; 2 * MAX_W];
+            let mut st = [(0.0, 0.0); MAX_NODES];
+            let q = CyclesPerBin::new(t.range, sp.fs, sp.n_samples, sp.sound_speed);
+            let mut x = q.frac_at(1.0);
+            if x < 0.0 {
+                x += 1.0;
+            }
+            let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
+            let l0 = plan.nufft.weights(x, &mut wts);
+            for j in 0..w {
+                wd[2 * j] = wts[j];
+                wd[2 * j + 1] = wts[j];
+            }
+            for c in 0..p {
+                st[c] = (fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr);
+            }
+            spread_one(grid, glen, p, w, l0, &wd, &st);
+            true
+        }
+    }
+}
+
 /// One task's share: spread grids (P channels, interleaved re/im) and the exactly summed leaves.
 struct Partial {
     grid: Vec<f64>,
@@ -251,7 +285,7 @@ struct Partial {
 }
 
 /// Leaves per vector batch of the fast path.
-const LB: usize = 8;
+pub(crate) const LB: usize = 8;
 
 /// Spread one leaf: strengths `s_q` (one per channel) times the kernel weights `wd` (each
 /// duplicated for re and im, zero past the kernel's width) onto `WS` complex grid points of
@@ -297,6 +331,9 @@ fn spread_one(
 /// From this tolerance up, node values use the short series of [`crate::vmath`] (errors
 /// below 1e-12, far under the `tol / 5` budget) instead of the full ones (~1e-16).
 pub const SHORT_SERIES_TOL: f64 = 1e-9;
+/// From this tolerance up, node values use the shortest series (errors below 1e-9, still
+/// 200 times under the `tol / 5` budget after interpolation).
+pub const LOW_SERIES_TOL: f64 = 1e-6;
 
 /// [`paper_nodes_p`] at the precision the plan's tolerance needs.
 #[inline(always)]
@@ -310,19 +347,21 @@ fn paper_nodes<const ATTEN: bool>(
     ap: &[f64; LB],
     aq: &[f64; LB],
 ) -> ([[f64; LB]; MAX_NODES], [[f64; LB]; MAX_NODES]) {
-    if plan.tol >= SHORT_SERIES_TOL {
-        paper_nodes_p::<ATTEN, true>(plan, amp, range, beta, a, ap, aq)
+    if plan.tol >= LOW_SERIES_TOL {
+        paper_nodes_p::<ATTEN, 2>(plan, amp, range, beta, a, ap, aq)
+    } else if plan.tol >= SHORT_SERIES_TOL {
+        paper_nodes_p::<ATTEN, 1>(plan, amp, range, beta, a, ap, aq)
     } else {
-        paper_nodes_p::<ATTEN, false>(plan, amp, range, beta, a, ap, aq)
+        paper_nodes_p::<ATTEN, 0>(plan, amp, range, beta, a, ap, aq)
     }
 }
 
 /// Node values of the paper model's leaf factor for a batch of leaves (lanes = leaves):
-/// `F(t_q) = amp L exp(-j psi) / k [exp(-atten r)]` at each of the plan's nodes; `SHORT`
-/// selects the short series.
+/// `F(t_q) = amp L exp(-j psi) / k [exp(-atten r)]` at each of the plan's nodes; `LEVEL`
+/// selects the series: 0 full (~1e-16), 1 short (~1e-12), 2 shortest (~1e-9).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn paper_nodes_p<const ATTEN: bool, const SHORT: bool>(
+fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
     plan: &FastPlan,
     amp: &[f64; LB],
     range: &[f64; LB],
@@ -335,10 +374,12 @@ fn paper_nodes_p<const ATTEN: bool, const SHORT: bool>(
     let (h0r, h0i) = (PAPER_PSI0.cos(), -PAPER_PSI0.sin());
     let mut fr = [[0.0; LB]; MAX_NODES];
     let mut fi = [[0.0; LB]; MAX_NODES];
-    // Nodes in pairs: the two erf recurrences interleave (the Clenshaw chain is the longest).
-    for q0 in (0..plan.p).step_by(2) {
-        let mut zz = [0.0; 2 * LB];
-        for h in 0..2 {
+    // Nodes in groups of NG: the groups' erf recurrences interleave (the Clenshaw chain is the
+    // longest; one chain alone would leave the FMA units idle).
+    const NG: usize = 3;
+    for q0 in (0..plan.p).step_by(NG) {
+        let mut zz = [0.0; NG * LB];
+        for h in 0..NG {
             let q = (q0 + h).min(plan.p - 1);
             let kq = nt.kq[q];
             for i in 0..LB {
@@ -346,29 +387,32 @@ fn paper_nodes_p<const ATTEN: bool, const SHORT: bool>(
                     PAPER_P1.mul_add(kq * aq[i], PAPER_P0) * (PAPER_BETA_REF - beta[i]);
             }
         }
-        let e = if SHORT {
-            erf_cheb_lanes::<28, { 2 * LB }>(&zz)
+        let e = if LEVEL == 2 {
+            erf_cheb_lanes::<22, { NG * LB }>(&zz)
+        } else if LEVEL == 1 {
+            erf_cheb_lanes::<28, { NG * LB }>(&zz)
         } else {
-            erf_cheb_lanes::<40, { 2 * LB }>(&zz)
+            erf_cheb_lanes::<40, { NG * LB }>(&zz)
         };
-        for h in 0..2 {
-            let q = q0 + h;
-            if q >= plan.p {
-                break;
-            }
+        for h in 0..NG {
+            let q = (q0 + h).min(plan.p - 1);
             let (k, inv_k, kp) = (nt.k[q], nt.inv_k[q], nt.kp[q]);
             for i in 0..LB {
                 let c = k * a[i];
                 let ac = (PAPER_A2 * c).mul_add(c, PAPER_A0);
                 let bc = PAPER_B1.mul_add(kp * ap[i], PAPER_B0);
-                let cx = if SHORT {
+                let cx = if LEVEL == 2 {
+                    cos_0_pi_k::<8>(bc * beta[i])
+                } else if LEVEL == 1 {
                     cos_0_pi_k::<9>(bc * beta[i])
                 } else {
                     cos_0_pi_k::<12>(bc * beta[i])
                 };
                 let l = (ac * cx).max(0.0);
                 let ei = e[h * LB + i];
-                let (se, ce) = if SHORT {
+                let (se, ce) = if LEVEL == 2 {
+                    sincos_unit_k::<6, 7>(ei)
+                } else if LEVEL == 1 {
                     sincos_unit_k::<7, 8>(ei)
                 } else {
                     sincos_unit_k::<11, 12>(ei)
@@ -378,7 +422,9 @@ fn paper_nodes_p<const ATTEN: bool, const SHORT: bool>(
                 let mut am = amp[i] * l * inv_k;
                 if ATTEN {
                     let x = -nt.atten[q] * range[i];
-                    am *= if SHORT {
+                    am *= if LEVEL == 2 {
+                        exp_nonpos_d::<8>(x)
+                    } else if LEVEL == 1 {
                         exp_nonpos_d::<10>(x)
                     } else {
                         exp_nonpos_d::<13>(x)
@@ -421,15 +467,22 @@ const ADAPT_SAMPLE: usize = 256;
 /// node count, and the count with the least expected cost is taken. Leaves that need more
 /// fail the per-leaf check and get a second pass at the full count (or the exact sum), so the
 /// choice changes the speed, never the error bound.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn choose_nodes(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
     if terms.len() < ADAPT_MIN_LEAVES || sonar.params.leaf_model != LeafModel::Paper {
         return plan.p;
     }
     let stride = (terms.len() / ADAPT_SAMPLE).max(1);
-    let sample: Vec<&LeafTerm> = terms
+    let sample: Vec<&LeafTerm> = terms.iter().step_by(stride).collect();
+    choose_nodes_from(sonar, plan, &sample)
+}
+
+/// [`choose_nodes`] from a sample of the call's leaves (paper model; at most [`ADAPT_SAMPLE`]
+/// smooth ones are used).
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafTerm]) -> usize {
+    let sample: Vec<&LeafTerm> = sample
         .iter()
-        .step_by(stride)
+        .copied()
         .filter(|t| paper_regime(&sonar.tables, t) == PaperRegime::Smooth)
         .take(ADAPT_SAMPLE)
         .collect();
@@ -470,10 +523,11 @@ fn choose_nodes(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
             need.push((last + 2).min(p));
         }
     }
-    // Expected cost per leaf of P nodes: node values and spreading grow with P; a leaf that
-    // needs more goes to a second pass at the plan's full node count.
+    // Expected cost per leaf of P nodes (in units of about 1 ns): node values and spreading grow
+    // with P; a leaf that needs more goes to a second pass at the plan's full node count.
     let node_cost = |q: usize| q as f64 * (8.0 + 0.5 * plan.nufft.w as f64);
-    let second_pass = node_cost(p) + 30.0;
+    // (measured: a deferred leaf costs about twice a full-count leaf, plus its copy)
+    let second_pass = 2.0 * node_cost(p) + 100.0;
     (2..=p)
         .min_by(|&x, &y| {
             let cost = |q: usize| {
@@ -486,17 +540,16 @@ fn choose_nodes(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
 }
 
 /// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
-/// leaves (lanes), then the spreading; leaves failing the smoothness check go to `direct`.
+/// leaves (lanes), then the spreading; returns which leaves failed the smoothness check (not
+/// spread: the caller defers them).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn paper_batch<const ATTEN: bool>(
+pub(crate) fn paper_batch<const ATTEN: bool>(
     sonar: &Sonar,
     plan: &FastPlan,
     batch: &[&LeafTerm],
     grid: &mut [f64],
-    direct: &mut Vec<usize>,
-    batch_ids: &[usize],
-) {
+) -> [bool; LB] {
     let (p, w, glen) = (plan.p, plan.nufft.w, plan.nufft.grid_len());
     let sp = &sonar.params;
     let n = batch.len();
@@ -548,9 +601,10 @@ fn paper_batch<const ATTEN: bool>(
     // Spread each lane (weights past the kernel's width stay zero).
     let mut wd = [0.0; 2 * MAX_W];
     let mut st = [(0.0, 0.0); MAX_NODES];
+    let mut failed = [false; LB];
     for i in 0..n {
         if !ok[i] {
-            direct.push(batch_ids[i]);
+            failed[i] = true;
             continue;
         }
         for j in 0..w {
@@ -566,11 +620,12 @@ fn paper_batch<const ATTEN: bool>(
         let l0 = (l0f[i] as i64 + plan.nufft.pad as i64) as usize;
         spread_one(grid, glen, p, w, l0, &wd, &st);
     }
+    failed
 }
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
-    let (p, glen, w) = (plan.p, plan.nufft.grid_len(), plan.nufft.w);
+    let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = vec![0.0; 2 * p * glen];
     let mut direct_ids: Vec<usize> = Vec::new();
     let sp = &sonar.params;
@@ -587,11 +642,16 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
                 if batch.is_empty() {
                     return;
                 }
-                if atten {
-                    paper_batch::<true>(sonar, plan, batch, grid, direct, ids);
+                let failed = if atten {
+                    paper_batch::<true>(sonar, plan, batch, grid)
                 } else {
-                    paper_batch::<false>(sonar, plan, batch, grid, direct, ids);
-                }
+                    paper_batch::<false>(sonar, plan, batch, grid)
+                };
+                direct.extend(
+                    ids.iter()
+                        .zip(failed)
+                        .filter_map(|(&id, f)| f.then_some(id)),
+                );
                 batch.clear();
                 ids.clear();
             };
@@ -611,31 +671,9 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             flush(&mut batch, &mut ids, &mut grid, &mut direct_ids);
         }
         LeafModel::PhysicalOptics => {
-            let (mut fr, mut fi) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
-            let mut wts = [0.0; MAX_W];
-            let mut wd = [0.0; 2 * MAX_W];
-            let mut st = [(0.0, 0.0); MAX_NODES];
             for (idx, t) in terms.iter().enumerate() {
-                match po_node_values(sonar, plan, t, &mut fr, &mut fi) {
-                    Route::Skip => {}
-                    Route::Direct => direct_ids.push(idx),
-                    Route::Spread => {
-                        let q = CyclesPerBin::new(t.range, sp.fs, sp.n_samples, sp.sound_speed);
-                        let mut x = q.frac_at(1.0);
-                        if x < 0.0 {
-                            x += 1.0;
-                        }
-                        let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
-                        let l0 = plan.nufft.weights(x, &mut wts);
-                        for j in 0..w {
-                            wd[2 * j] = wts[j];
-                            wd[2 * j + 1] = wts[j];
-                        }
-                        for c in 0..p {
-                            st[c] = (fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr);
-                        }
-                        spread_one(&mut grid, glen, p, w, l0, &wd, &st);
-                    }
+                if !po_leaf(sonar, plan, t, &mut grid) {
+                    direct_ids.push(idx);
                 }
             }
         }
@@ -688,7 +726,7 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
 
 /// One fast pass at the plan's node count; with `defer`, the leaves it cannot represent are
 /// returned (indices into `terms`, ascending) instead of summed exactly.
-fn fast_sum_fixed(
+pub(crate) fn fast_sum_fixed(
     sonar: &Sonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
@@ -726,6 +764,20 @@ fn fast_sum_fixed(
         deferred.clear();
         crate::spectrum::sum_terms_unwindowed(sonar, &rest)
     };
+    let (re, im) = finish_grid(sonar, plan, &grid, direct);
+    (re, im, deferred)
+}
+
+/// The windowed band spectrum from spread grids (one NUFFT per channel, then the Lagrange
+/// combination) plus the unwindowed exactly summed part `direct`.
+pub(crate) fn finish_grid(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    grid: &[f64],
+    direct: (Vec<f64>, Vec<f64>),
+) -> (Vec<f64>, Vec<f64>) {
+    let m = sonar.n_bins();
+    let (p, glen) = (plan.p, plan.nufft.grid_len());
     // One NUFFT per channel, then the Lagrange combination.
     let modes: Vec<Vec<Complex64>> = grid
         .par_chunks(2 * glen)
@@ -750,7 +802,7 @@ fn fast_sum_fixed(
         re[j] = acc.re * sonar.window[j];
         im[j] = acc.im * sonar.window[j];
     }
-    (re, im, deferred)
+    (re, im)
 }
 
 #[cfg(test)]

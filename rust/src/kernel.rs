@@ -382,10 +382,12 @@ fn phase_steps(q: &CyclesPerBin) -> ([(f64, f64); LANES], (f64, f64)) {
     (pw, cis_neg(q.frac_at(LANES as f64)))
 }
 
-/// Accumulate `F z` over one block and advance `z` (re-anchoring at `ANCHOR_BINS`).
+/// Accumulate `F z` over one block and advance `z` (re-anchoring at `ANCHOR_BINS`, or here
+/// when `anchor`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn accumulate_block(
+    anchor: bool,
     j0: usize,
     k0: f64,
     q: &CyclesPerBin,
@@ -398,7 +400,7 @@ fn accumulate_block(
     re_b: &mut [f64; LANES],
     im_b: &mut [f64; LANES],
 ) {
-    if j0 % ANCHOR_BINS == 0 {
+    if anchor || j0 % ANCHOR_BINS == 0 {
         let z0 = cis_neg(q.frac_at(k0 + j0 as f64));
         for i in 0..LANES {
             (zr[i], zi[i]) = cmul(z0, pw[i]);
@@ -418,32 +420,6 @@ fn lanes(v: &[f64], j0: usize) -> &[f64; LANES] {
     v[j0..j0 + LANES]
         .try_into()
         .expect("tables are padded to LANES")
-}
-
-/// Advance the phase recurrence over one block without accumulating (re-anchoring as
-/// [`accumulate_block`] does).
-#[inline(always)]
-fn advance_block(
-    j0: usize,
-    k0: f64,
-    q: &CyclesPerBin,
-    pw: &[(f64, f64); LANES],
-    w8: (f64, f64),
-    zr: &mut [f64; LANES],
-    zi: &mut [f64; LANES],
-) {
-    if j0 % ANCHOR_BINS == 0 {
-        let z0 = cis_neg(q.frac_at(k0 + j0 as f64));
-        for i in 0..LANES {
-            (zr[i], zi[i]) = cmul(z0, pw[i]);
-        }
-    }
-    for i in 0..LANES {
-        let nr = zr[i].mul_add(w8.0, -zi[i] * w8.1);
-        let ni = zr[i].mul_add(w8.1, zi[i] * w8.0);
-        zr[i] = nr;
-        zi[i] = ni;
-    }
 }
 
 fn lanes_mut(v: &mut [f64], j0: usize) -> &mut [f64; LANES] {
@@ -506,6 +482,7 @@ fn paper_blocks<const ATTEN: bool>(
     let (pw, w8) = phase_steps(q);
     let (mut zr, mut zi) = ([0.0; LANES], [0.0; LANES]);
     let (mut fr, mut fi) = ([0.0; LANES], [0.0; LANES]);
+    let mut anchor = false;
     for b in 0..nt.n_blocks {
         let j_start = b * POLY_BLOCK;
         let j_end = if b + 1 == nt.n_blocks {
@@ -523,9 +500,8 @@ fn paper_blocks<const ATTEN: bool>(
             (x_at(j_start) < FRAC_PI_2, x_at(last) >= FRAC_PI_2)
         };
         if block_zero {
-            for j0 in (j_start..j_end).step_by(LANES) {
-                advance_block(j0, tab.k0, q, &pw, w8, &mut zr, &mut zi);
-            }
+            // L = 0 here: nothing to add; the phase is anchored afresh at the next block
+            anchor = true;
             continue;
         }
         let poly = if block_smooth {
@@ -582,6 +558,7 @@ fn paper_blocks<const ATTEN: bool>(
                 }
             }
             accumulate_block(
+                std::mem::take(&mut anchor),
                 j0,
                 tab.k0,
                 q,

@@ -20,6 +20,7 @@ pub mod nufft;
 pub mod obj;
 pub mod phase;
 pub mod pose;
+pub mod pulse;
 pub mod scene;
 pub mod simulate;
 pub mod sonar;

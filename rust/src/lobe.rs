@@ -301,7 +301,13 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
                 BoxTest::Inside => true,
             }
         };
-        if node.is_leaf() {
+        if inside && !scene.node_ranges.is_empty() {
+            // the whole subtree counts as candidates: its stored leaves are one range
+            let (lo, hi) = scene.node_ranges[ni as usize];
+            for k in lo..hi {
+                visit(bvh.primitive_indices[k as usize]);
+            }
+        } else if node.is_leaf() {
             let first = node.first_index as usize;
             for k in first..first + node.prim_count as usize {
                 visit(bvh.primitive_indices[k]);
@@ -355,127 +361,213 @@ type Part = (Vec<Member>, Option<(usize, f64)>);
 const AMBIGUOUS: f64 = 1e-11;
 
 /// Leaves per vector block of the fast test.
-const CB: usize = 8;
+pub(crate) const CB: usize = 8;
 
-/// The exact test for a chunk of candidates, eight at a time. Range, direction and the cone
-/// test use the same f64 operations as [`classify`] (so they decide identically); azimuth,
-/// elevation, gain and incidence use the polynomial `atan2` and `exp` of [`crate::vmath`]
-/// (~4e-16). A leaf whose range lies within [`AMBIGUOUS`] of its detectable reach is decided
-/// by [`classify`] itself (libm), so every decision equals the scalar test's.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn classify_many(scene: &Scene, sonar: &Sonar, pose: &Pose, chunk: &[u32]) -> Part {
-    let mut out = Vec::with_capacity(chunk.len());
-    let mut too_close = None;
+/// What the exact test says about each lane of a block of up to [`CB`] candidates.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BlockView {
+    /// Per lane: 0 out, 1 in, 2 within [`AMBIGUOUS`] of the reach (decide with [`classify`]).
+    pub verdict: [u8; CB],
+    pub gain: [f64; CB],
+    pub beta: [f64; CB],
+    pub cos_beta: [f64; CB],
+    pub sin_beta: [f64; CB],
+}
+
+/// The vector part of the exact test for up to [`CB`] candidates `(index, range)` already
+/// within `[min_range, range_limit]`. Range, direction and the cone test use the same f64
+/// operations as [`classify`] (so they decide identically); azimuth, elevation, gain and
+/// incidence use the polynomial `atan2` and `exp` of [`crate::vmath`] (~4e-16). A lane whose
+/// range lies within [`AMBIGUOUS`] of its detectable reach is marked for [`classify`] (libm),
+/// so that every decision equals the scalar test's.
+#[inline(always)]
+pub(crate) fn classify_block(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    block: &[(u32, f64)],
+) -> BlockView {
     let p = pose.position;
     let (d, u, l) = (pose.forward, pose.up, pose.left);
     let sp = &sonar.params;
     let detectable = matches!(sp.lobe, LobeRule::Detectable { .. });
-    // Pass 1, cheap: the range of every candidate (the same operations as `classify`).
-    let mut near: Vec<(u32, f64)> = Vec::with_capacity(chunk.len() / 4 + 8);
+    let n = block.len();
+    // Gather (missing lanes repeat the last candidate), then branch-free loops over the lanes
+    // (each vectorises).
+    let (mut dx, mut dy, mut dz, mut r) = ([0.0; CB], [0.0; CB], [0.0; CB], [0.0; CB]);
+    let (mut nx, mut ny, mut nz) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+    for k in 0..CB {
+        let (i, rk) = block[k.min(n - 1)];
+        let c = scene.centers[i as usize];
+        let nv = scene.normals[i as usize];
+        (dx[k], dy[k], dz[k], r[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2], rk);
+        (nx[k], ny[k], nz[k]) = (nv[0], nv[1], nv[2]);
+    }
+    let (mut ex, mut ey, mut ez) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+    let (mut ed, mut el_, mut eu) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+    for k in 0..CB {
+        (ex[k], ey[k], ez[k]) = (dx[k] / r[k], dy[k] / r[k], dz[k] / r[k]);
+        ed[k] = ex[k] * d[0] + ey[k] * d[1] + ez[k] * d[2];
+        el_[k] = ex[k] * l[0] + ey[k] * l[1] + ez[k] * l[2];
+        eu[k] = ex[k] * u[0] + ey[k] * u[1] + ez[k] * u[2];
+    }
+    let mut v = BlockView {
+        verdict: [0; CB],
+        gain: [0.0; CB],
+        beta: [0.0; CB],
+        cos_beta: [0.0; CB],
+        sin_beta: [0.0; CB],
+    };
+    let (mut az, mut el) = ([0.0; CB], [0.0; CB]);
+    for k in 0..CB {
+        az[k] = atan2_fast(el_[k], ed[k]);
+    }
+    for k in 0..CB {
+        el[k] = atan2_fast(eu[k], (ed[k] * ed[k] + el_[k] * el_[k]).sqrt());
+    }
+    let (mut sb, mut cb) = ([0.0; CB], [0.0; CB]);
+    for k in 0..CB {
+        let cr = cross([ex[k], ey[k], ez[k]], [nx[k], ny[k], nz[k]]);
+        sb[k] = (cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]).sqrt();
+        cb[k] = ex[k] * nx[k] + ey[k] * ny[k] + ez[k] * nz[k];
+    }
+    for k in 0..CB {
+        let bt = atan2_fast(sb[k], cb[k]);
+        v.beta[k] = bt.min(PI - bt);
+        v.cos_beta[k] = cb[k].abs().min(1.0);
+        v.sin_beta[k] = sb[k].min(1.0);
+    }
+    let quad_lanes = |b: &crate::beam::GaussianBeam, q: &mut [f64; CB]| {
+        for k in 0..CB {
+            q[k] = b.quad(b.delta_az(az[k]), el[k] - b.el0);
+        }
+    };
+    let (mut q_tx, mut q_rx) = ([0.0; CB], [0.0; CB]);
+    quad_lanes(&sp.emitter, &mut q_tx);
+    match &sp.receiver {
+        Some(rx) => quad_lanes(rx, &mut q_rx),
+        None => q_rx = q_tx,
+    }
+    // Gains: the polynomial exp holds down to exp(-700); beyond, libm (subnormal or 0).
+    let (mut s_tx, mut s_rx) = ([0.0; CB], [0.0; CB]);
+    for k in 0..CB {
+        s_tx[k] = exp_nonpos(-q_tx[k]);
+    }
+    if sp.receiver.is_some() {
+        for k in 0..CB {
+            s_rx[k] = exp_nonpos(-q_rx[k]);
+        }
+    } else {
+        s_rx = s_tx;
+    }
+    for k in 0..n {
+        if q_tx[k] > 700.0 {
+            s_tx[k] = (-q_tx[k]).exp();
+        }
+        if q_rx[k] > 700.0 {
+            s_rx[k] = (-q_rx[k]).exp();
+        }
+    }
+    let rx_amp = sonar.receiver().amplitude;
+    for k in 0..n {
+        let r = r[k];
+        if !detectable && ed[k] < sonar.cos_half_angle {
+            continue;
+        }
+        let g = (sp.emitter.amplitude * s_tx[k]) * (rx_amp * s_rx[k]);
+        v.gain[k] = g;
+        v.verdict[k] = 1;
+        if detectable {
+            let reach = (sonar.reach_sq_per_gain * g).sqrt();
+            if r > reach * (1.0 + AMBIGUOUS) {
+                v.verdict[k] = 0;
+            } else if !(r <= reach * (1.0 - AMBIGUOUS)) {
+                v.verdict[k] = 2;
+            }
+        }
+    }
+    v
+}
+
+/// The libm decision for a leaf on the detectable boundary (see [`classify_block`]), exactly
+/// as the reference makes it.
+pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32) -> Option<Member> {
+    match classify(sonar, pose, scene.centers[i as usize]) {
+        Decision::In(v) => {
+            let (beta, cos_beta, sin_beta) = incidence(v.dir, scene.normals[i as usize]);
+            Some(Member {
+                index: i,
+                range: v.range,
+                gain: v.gain,
+                beta,
+                cos_beta,
+                sin_beta,
+            })
+        }
+        _ => None,
+    }
+}
+
+/// Pass 1 of the exact test, cheap: the range of every candidate (the same operations as
+/// [`classify`]). Candidates within `[min_range, range_limit]` go to `near`; the smallest index
+/// of a too-close leaf (the caller's index, with its range) is kept in `too_close`.
+#[inline(always)]
+pub(crate) fn near_candidates(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    chunk: &[u32],
+    near: &mut Vec<(u32, f64)>,
+    too_close: &mut Option<(usize, f64)>,
+) {
+    let p = pose.position;
+    let sp = &sonar.params;
     for &i in chunk {
         let c = scene.centers[i as usize];
         let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
         let r = (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt();
         if !(r >= sp.min_range) {
-            if too_close.is_none() {
-                too_close = Some((i as usize, r));
+            let id = scene.ids[i as usize] as usize;
+            if too_close.is_none_or(|(j, _)| id < j) {
+                *too_close = Some((id, r));
             }
         } else if r <= sonar.range_limit {
             near.push((i, r));
         }
     }
-    // Pass 2, eight at a time: direction, angles, gain, incidence.
+}
+
+/// The exact test for a chunk of candidates, eight at a time ([`classify_block`]).
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn classify_many(scene: &Scene, sonar: &Sonar, pose: &Pose, chunk: &[u32]) -> Part {
+    let mut out = Vec::with_capacity(chunk.len());
+    let mut too_close = None;
+    let mut near: Vec<(u32, f64)> = Vec::with_capacity(chunk.len());
+    near_candidates(scene, sonar, pose, chunk, &mut near, &mut too_close);
     for block in near.chunks(CB) {
-        let n = block.len();
-        let at = |k: usize| block[k.min(n - 1)];
-        let mut e = [[0.0; 3]; CB];
-        let (mut ed, mut el_, mut eu) = ([0.0; CB], [0.0; CB], [0.0; CB]);
-        for k in 0..CB {
-            let (i, r) = at(k);
-            let c = scene.centers[i as usize];
-            let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-            e[k] = [dx[0] / r, dx[1] / r, dx[2] / r];
-            ed[k] = e[k][0] * d[0] + e[k][1] * d[1] + e[k][2] * d[2];
-            el_[k] = e[k][0] * l[0] + e[k][1] * l[1] + e[k][2] * l[2];
-            eu[k] = e[k][0] * u[0] + e[k][1] * u[1] + e[k][2] * u[2];
-        }
-        let (mut q_tx, mut q_rx, mut beta) = ([0.0; CB], [0.0; CB], [0.0; CB]);
-        let (mut cos_b, mut sin_b) = ([0.0; CB], [0.0; CB]);
-        let quad =
-            |b: &crate::beam::GaussianBeam, az: f64, el: f64| b.quad(b.delta_az(az), el - b.el0);
-        for k in 0..CB {
-            let az = atan2_fast(el_[k], ed[k]);
-            let el = atan2_fast(eu[k], (ed[k] * ed[k] + el_[k] * el_[k]).sqrt());
-            q_tx[k] = quad(&sp.emitter, az, el);
-            q_rx[k] = sp.receiver.as_ref().map_or(q_tx[k], |rx| quad(rx, az, el));
-            let nv = scene.normals[at(k).0 as usize];
-            let cr = cross(e[k], nv);
-            let b = (cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]).sqrt();
-            let en = e[k][0] * nv[0] + e[k][1] * nv[1] + e[k][2] * nv[2];
-            let bt = atan2_fast(b, en);
-            beta[k] = bt.min(PI - bt);
-            cos_b[k] = en.abs().min(1.0);
-            sin_b[k] = b.min(1.0);
-        }
-        // Gains: the polynomial exp holds down to exp(-700); beyond, libm (subnormal or 0).
-        let (mut s_tx, mut s_rx) = ([0.0; CB], [0.0; CB]);
-        for k in 0..CB {
-            s_tx[k] = exp_nonpos(-q_tx[k]);
-            s_rx[k] = exp_nonpos(-q_rx[k]);
-        }
-        for k in 0..n {
-            if q_tx[k] > 700.0 {
-                s_tx[k] = (-q_tx[k]).exp();
+        let v = classify_block(scene, sonar, pose, block);
+        for (k, &(i, r)) in block.iter().enumerate() {
+            match v.verdict[k] {
+                1 => out.push(Member {
+                    index: i,
+                    range: r,
+                    gain: v.gain[k],
+                    beta: v.beta[k],
+                    cos_beta: v.cos_beta[k],
+                    sin_beta: v.sin_beta[k],
+                }),
+                2 => out.extend(classify_member(scene, sonar, pose, i)),
+                _ => {}
             }
-            if q_rx[k] > 700.0 {
-                s_rx[k] = (-q_rx[k]).exp();
-            }
-        }
-        let rx_amp = sonar.receiver().amplitude;
-        for k in 0..n {
-            let (i, r) = block[k];
-            if !detectable && ed[k] < sonar.cos_half_angle {
-                continue;
-            }
-            let g = (sp.emitter.amplitude * s_tx[k]) * (rx_amp * s_rx[k]);
-            if detectable {
-                let reach = (sonar.reach_sq_per_gain * g).sqrt();
-                if r > reach * (1.0 + AMBIGUOUS) {
-                    continue;
-                }
-                if !(r <= reach * (1.0 - AMBIGUOUS)) {
-                    // on the boundary: the libm test decides, exactly as the reference does
-                    if let Decision::In(v) = classify(sonar, pose, scene.centers[i as usize]) {
-                        let (beta, cos_beta, sin_beta) =
-                            incidence(v.dir, scene.normals[i as usize]);
-                        out.push(Member {
-                            index: i,
-                            range: v.range,
-                            gain: v.gain,
-                            beta,
-                            cos_beta,
-                            sin_beta,
-                        });
-                    }
-                    continue;
-                }
-            }
-            out.push(Member {
-                index: i,
-                range: r,
-                gain: g,
-                beta: beta[k],
-                cos_beta: cos_b[k],
-                sin_beta: sin_b[k],
-            });
         }
     }
     (out, too_close)
 }
 
-/// The counting leaves for one pose, sorted by leaf index. `pose_index` only labels errors.
-/// The exact test runs on the candidates in parallel chunks (in index order, so the result does
-/// not depend on the number of threads).
+/// The counting leaves for one pose, sorted by stored index (the scene's BVH order; map with
+/// `scene.ids` to the caller's indices). `pose_index` only labels errors. The exact test runs
+/// on the candidates in parallel chunks (in index order, so the result does not depend on the
+/// number of threads).
 pub fn members(
     scene: &Scene,
     sonar: &Sonar,
@@ -483,15 +575,26 @@ pub fn members(
     pose_index: usize,
     search: Search,
 ) -> Result<Vec<Member>> {
-    let candidates: Vec<u32> = match search {
-        Search::Bvh => {
-            let mut c = Vec::new();
-            bvh_candidates(scene, sonar, pose, |i| c.push(i));
-            c.par_sort_unstable();
-            c
-        }
-        Search::BruteForce => (0..scene.len() as u32).collect(),
-    };
+    members_of(
+        scene,
+        sonar,
+        pose,
+        pose_index,
+        crate::pulse::candidates(scene, sonar, pose, search),
+    )
+}
+
+/// [`members`] from the pose's candidates (any order; they are sorted here).
+pub fn members_of(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    pose_index: usize,
+    mut candidates: Vec<u32>,
+) -> Result<Vec<Member>> {
+    if !candidates.is_sorted() {
+        candidates.par_sort_unstable();
+    }
     let classify_chunk = |chunk: &[u32]| -> Part { classify_many(scene, sonar, pose, chunk) };
     let parts: Vec<Part> = if candidates.len() <= CLASSIFY_CHUNK {
         vec![classify_chunk(&candidates)]
@@ -502,7 +605,7 @@ pub fn members(
             .collect()
     };
     if sonar.params.too_close == TooClose::Error {
-        if let Some((leaf, range)) = parts.iter().find_map(|p| p.1) {
+        if let Some((leaf, range)) = parts.iter().filter_map(|p| p.1).min_by_key(|&(l, _)| l) {
             return Err(Error::TooClose {
                 pose: pose_index,
                 leaf,

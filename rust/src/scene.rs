@@ -15,7 +15,11 @@ use std::time::{Duration, Instant};
 /// Coordinates beyond this (m) are refused: the BVH stores f32 boxes.
 pub const MAX_COORDINATE: f64 = 1e15;
 
+/// Leaves are stored in the BVH's primitive order (so that a traversal reads them nearly
+/// sequentially); `ids[i]` is the caller's index of stored leaf `i`. Every index that reaches
+/// the user (members, errors) is mapped back through `ids`.
 pub struct Scene {
+    pub ids: Vec<u32>,
     pub centers: Vec<V3>,
     pub normals: Vec<V3>,
     pub radii: Vec<f64>,
@@ -23,6 +27,10 @@ pub struct Scene {
     pub radius_pow_b: Vec<f64>,
     pub radius_pow_p: Vec<f64>,
     pub bvh: Bvh2,
+    /// Per BVH node, the range `[lo, hi)` of stored leaves below it, when every subtree's
+    /// leaves are contiguous in storage (empty otherwise): a traversal takes a subtree that
+    /// lies wholly inside the lobe as one range.
+    pub node_ranges: Vec<(u32, u32)>,
     /// Wall time of the BVH build.
     pub build_time: Duration,
 }
@@ -109,17 +117,38 @@ impl Scene {
             .map(|(&c, &a)| point_box(c, a))
             .collect();
         let mut core = Duration::default();
-        let bvh = build_bvh2(&boxes, BvhBuildParams::fast_build(), &mut core);
+        let mut bvh = build_bvh2(&boxes, BvhBuildParams::fast_build(), &mut core);
+        // Store the leaves in the order a depth-first traversal meets them (so that every
+        // subtree's leaves are one contiguous range and a traversal reads them in order); the
+        // leaf nodes are renumbered to index storage directly.
+        let n = centers.len();
+        let ids = dfs_order(&mut bvh, n).unwrap_or_else(|| (0..n as u32).collect());
+        let is_perm = bvh.primitive_indices.len() == n
+            && bvh
+                .primitive_indices
+                .iter()
+                .enumerate()
+                .all(|(k, &i)| i as usize == k);
+        let permute = |v: &[V3]| -> Vec<V3> { ids.iter().map(|&i| v[i as usize]).collect() };
+        let (centers, normals) = (permute(&centers), permute(&normals));
+        let radii: Vec<f64> = ids.iter().map(|&i| radii[i as usize]).collect();
+        let node_ranges = if is_perm {
+            subtree_ranges(&bvh)
+        } else {
+            Vec::new()
+        };
         let build_time = start.elapsed();
         let radius_pow_b = radii.par_iter().map(|a| a.powf(PAPER_BP)).collect();
         let radius_pow_p = radii.par_iter().map(|a| a.powf(PAPER_PP)).collect();
         Ok(Scene {
+            ids,
             centers,
             normals,
             radii,
             radius_pow_b,
             radius_pow_p,
             bvh,
+            node_ranges,
             build_time,
         })
     }
@@ -135,6 +164,81 @@ impl Scene {
     pub fn min_radius(&self) -> f64 {
         self.radii.iter().copied().fold(f64::INFINITY, f64::min)
     }
+}
+
+/// Renumber the BVH's leaves in depth-first order (first child first, as the lobe traversal
+/// visits them): returns the primitives in that order and sets `primitive_indices` to the
+/// identity. None (BVH untouched) unless every primitive appears exactly once.
+fn dfs_order(bvh: &mut Bvh2, n: usize) -> Option<Vec<u32>> {
+    if bvh.nodes.is_empty() || bvh.primitive_indices.len() != n {
+        return None;
+    }
+    let mut order: Vec<u32> = Vec::with_capacity(n);
+    let mut seen = vec![false; n];
+    let mut new_first: Vec<(usize, u32)> = Vec::new();
+    let mut stack = vec![0u32];
+    while let Some(ni) = stack.pop() {
+        let node = &bvh.nodes[ni as usize];
+        if node.is_leaf() {
+            new_first.push((ni as usize, order.len() as u32));
+            let first = node.first_index as usize;
+            for &p in bvh
+                .primitive_indices
+                .get(first..first + node.prim_count as usize)?
+            {
+                if (p as usize) >= n || std::mem::replace(&mut seen[p as usize], true) {
+                    return None;
+                }
+                order.push(p);
+            }
+        } else {
+            stack.push(node.first_index + 1);
+            stack.push(node.first_index);
+        }
+    }
+    if order.len() != n {
+        return None;
+    }
+    for (ni, first) in new_first {
+        bvh.nodes[ni].first_index = first;
+    }
+    bvh.primitive_indices = (0..n as u32).collect();
+    Some(order)
+}
+
+/// Per node, the range of primitive positions below it, if every subtree's positions are
+/// contiguous (else empty).
+fn subtree_ranges(bvh: &Bvh2) -> Vec<(u32, u32)> {
+    let nodes = &bvh.nodes;
+    if nodes.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![(u32::MAX, 0u32); nodes.len()];
+    let mut count = vec![0u64; nodes.len()];
+    // Post-order over an explicit stack: (node, children done).
+    let mut stack = vec![(0u32, false)];
+    while let Some((ni, done)) = stack.pop() {
+        let node = &nodes[ni as usize];
+        if node.is_leaf() {
+            let lo = node.first_index;
+            out[ni as usize] = (lo, lo + node.prim_count);
+            count[ni as usize] = node.prim_count as u64;
+        } else if !done {
+            stack.push((ni, true));
+            stack.push((node.first_index, false));
+            stack.push((node.first_index + 1, false));
+        } else {
+            let (a, b) = (node.first_index as usize, node.first_index as usize + 1);
+            let lo = out[a].0.min(out[b].0);
+            let hi = out[a].1.max(out[b].1);
+            count[ni as usize] = count[a] + count[b];
+            if (hi - lo) as u64 != count[ni as usize] {
+                return Vec::new();
+            }
+            out[ni as usize] = (lo, hi);
+        }
+    }
+    out
 }
 
 /// `n / |n|` for each normal, with `|n| = sqrt(nx^2 + ny^2 + nz^2)`; zero or non-finite normals

@@ -4,8 +4,9 @@
 use crate::error::{invalid, Result};
 use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::impulse::impulse_from_band;
-use crate::lobe::{members, Search};
+use crate::lobe::{members, members_of, Search};
 use crate::pose::Pose;
+use crate::pulse::{candidates, fast_pulse};
 use crate::scene::Scene;
 use crate::sonar::Sonar;
 use crate::spectrum::band_spectrum;
@@ -34,6 +35,7 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
             |acc, (i, a)| if a < acc.1 { (i, a) } else { acc },
         );
     if k_lo * a < sonar.params.min_ka {
+        let i = scene.ids[i];
         return invalid(format!(
             "leaf {i} has radius {a:e} m, so k a = {:.4} at the band's lowest frequency {} Hz, below min_ka = {}; \
              the leaf models are not valid that small (remove such leaves or lower min_ka knowingly)",
@@ -63,6 +65,10 @@ pub fn farthest_members(
         })
         .collect()
 }
+
+/// With `method = auto`, poses with at least this many lobe candidates take the fused fast
+/// path ([`fast_pulse`]) without counting their members first.
+pub const FUSED_MIN_CANDIDATES: usize = 4096;
 
 /// How the band spectrum is summed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,24 +129,33 @@ pub fn simulate(
         .par_iter()
         .enumerate()
         .map(|(i, pose)| {
-            let mem = members(scene, sonar, pose, i, search)?;
-            let use_fast = match (&plan, method) {
+            let cands = candidates(scene, sonar, pose, search);
+            // Many candidates: the fast method fused with the lobe test (for `auto` too: with
+            // this many candidates its fixed cost is small against either method's per-leaf
+            // work). Otherwise the members first, then the cheaper method for their number.
+            let fused = match (&plan, method) {
                 (Some(_), Method::Fast { .. }) => true,
-                (Some(pl), Method::Auto { .. }) => {
-                    cost_fast(mem.len(), m, pl) < cost_exact(mem.len(), m)
-                }
+                (Some(_), Method::Auto { .. }) => cands.len() >= FUSED_MIN_CANDIDATES,
                 _ => false,
             };
-            let (re, im) = match (&plan, use_fast) {
-                (Some(pl), true) => fast_band_spectrum(sonar, pl, scene, &mem),
-                _ => band_spectrum(sonar, scene, &mem),
+            let (re, im, count) = if let (true, Some(pl)) = (fused, &plan) {
+                fast_pulse(scene, sonar, pl, pose, i, &cands)?
+            } else {
+                let mem = members_of(scene, sonar, pose, i, cands)?;
+                let (re, im) = match &plan {
+                    Some(pl) if cost_fast(mem.len(), m, pl) < cost_exact(mem.len(), m) => {
+                        fast_band_spectrum(sonar, pl, scene, &mem)
+                    }
+                    _ => band_spectrum(sonar, scene, &mem),
+                };
+                (re, im, mem.len() as u64)
             };
             let mut y = Vec::new();
             if with_impulse {
                 y = vec![0.0; n];
                 impulse_from_band(n, sonar.k0, &re, &im, &mut y);
             }
-            Ok((re, im, y, mem.len() as u64))
+            Ok((re, im, y, count))
         })
         .collect::<Result<Vec<_>>>()?;
     let mut out = Echoes {

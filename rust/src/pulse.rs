@@ -1,0 +1,362 @@
+//! One pulse by the fast method, fused with the lobe query: the candidates of the BVH go
+//! through the exact lobe test, the leaf terms and the NUFFT spreading block by block, so that
+//! no list of members or terms is ever materialised (at 1e6 leaves those lists cost more than
+//! the spreading itself).
+//!
+//! Determinism: the candidates come in the BVH's traversal order (sequential, so the same for
+//! any thread count) and are cut into chunks whose length depends only on their number; each
+//! chunk spreads into its own grid and the grids are added in chunk order. Leaves the first
+//! pass cannot represent (kinked or failing the smoothness check at the chosen node count, or
+//! decided on the detectable boundary by the libm test) are kept as terms, in chunk order, for
+//! the plan's full node count or the exact sum ([`crate::fast::fast_sum_fixed`]). The set of
+//! counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf test.
+
+use crate::error::{Error, Result};
+use crate::fast::{
+    choose_nodes_from, fast_sum_fixed, finish_grid, paper_batch, po_leaf, FastPlan,
+    ADAPT_MIN_LEAVES, LB,
+};
+use crate::kernel::{paper_regime, PaperRegime};
+use crate::lobe::{
+    bvh_candidates, classify_block, classify_member, near_candidates, Member, Search, CB,
+};
+use crate::pose::Pose;
+use crate::scene::Scene;
+use crate::sonar::{LeafModel, Sonar, TooClose};
+use crate::spectrum::{leaf_term, LeafTerm};
+use multiversion::multiversion;
+use rayon::prelude::*;
+
+/// Candidates per range pass (their `(index, range)` stay in L1).
+const SUB: usize = 1024;
+/// Candidates sampled to choose the node count.
+const SAMPLE: usize = 1024;
+
+/// Candidates per parallel chunk for `n` candidates: about 16 chunks, each of 4096 to 65536
+/// candidates (a function of `n` only).
+pub fn chunk_len(n: usize) -> usize {
+    n.div_ceil(16).clamp(4096, 65_536).div_ceil(SUB) * SUB
+}
+
+/// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
+/// every leaf in index order.
+pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> Vec<u32> {
+    match search {
+        Search::Bvh => {
+            let mut c = Vec::new();
+            bvh_candidates(scene, sonar, pose, |i| c.push(i));
+            c
+        }
+        Search::BruteForce => (0..scene.len() as u32).collect(),
+    }
+}
+
+/// One chunk's share.
+struct Part {
+    grid: Vec<f64>,
+    deferred: Vec<LeafTerm>,
+    count: u64,
+    too_close: Option<(usize, f64)>,
+}
+
+/// Lobe test, terms and spreading for one chunk of candidates.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands: &[u32]) -> Part {
+    let (p, glen) = (plan.p, plan.nufft.grid_len());
+    let mut part = Part {
+        grid: vec![0.0; 2 * p * glen],
+        deferred: Vec::new(),
+        count: 0,
+        too_close: None,
+    };
+    let paper = sonar.params.leaf_model == LeafModel::Paper;
+    let atten = !plan.nodes.atten.is_empty();
+    let mut near: Vec<(u32, f64)> = Vec::with_capacity(SUB);
+    let mut batch: Vec<LeafTerm> = Vec::with_capacity(LB);
+    let flush = |batch: &mut Vec<LeafTerm>, part: &mut Part| {
+        let n = batch.len();
+        if n == 0 {
+            return;
+        }
+        let refs: [&LeafTerm; LB] = std::array::from_fn(|i| &batch[i.min(n - 1)]);
+        let failed = if atten {
+            paper_batch::<true>(sonar, plan, &refs[..n], &mut part.grid)
+        } else {
+            paper_batch::<false>(sonar, plan, &refs[..n], &mut part.grid)
+        };
+        for (t, f) in batch.iter().zip(failed) {
+            if f {
+                part.deferred.push(*t);
+            }
+        }
+        batch.clear();
+    };
+    for sub in cands.chunks(SUB) {
+        near.clear();
+        near_candidates(scene, sonar, pose, sub, &mut near, &mut part.too_close);
+        for block in near.chunks(CB) {
+            let v = classify_block(scene, sonar, pose, block);
+            for (k, &(i, r)) in block.iter().enumerate() {
+                let mb = match v.verdict[k] {
+                    1 => Member {
+                        index: i,
+                        range: r,
+                        gain: v.gain[k],
+                        beta: v.beta[k],
+                        cos_beta: v.cos_beta[k],
+                        sin_beta: v.sin_beta[k],
+                    },
+                    2 => match classify_member(scene, sonar, pose, i) {
+                        Some(m) => m,
+                        None => continue,
+                    },
+                    _ => continue,
+                };
+                part.count += 1;
+                let t = leaf_term(sonar, scene, &mb);
+                if !paper {
+                    if !po_leaf(sonar, plan, &t, &mut part.grid) {
+                        part.deferred.push(t);
+                    }
+                    continue;
+                }
+                match paper_regime(&sonar.tables, &t) {
+                    PaperRegime::Zero => {}
+                    PaperRegime::Smooth => {
+                        batch.push(t);
+                        if batch.len() == LB {
+                            flush(&mut batch, &mut part);
+                        }
+                    }
+                    PaperRegime::Kinked | PaperRegime::OutOfDomain => part.deferred.push(t),
+                }
+            }
+        }
+    }
+    flush(&mut batch, &mut part);
+    part
+}
+
+/// The windowed band spectrum `(re, im)` of one pose by the fast method, and its number of
+/// counting leaves. `pose_index` only labels errors.
+pub fn fast_pulse(
+    scene: &Scene,
+    sonar: &Sonar,
+    plan: &FastPlan,
+    pose: &Pose,
+    pose_index: usize,
+    cands: &[u32],
+) -> Result<(Vec<f64>, Vec<f64>, u64)> {
+    // The node count, from a sample of the counting leaves (see `fast::choose_nodes`).
+    let small_plan;
+    let first: &FastPlan =
+        if cands.len() >= ADAPT_MIN_LEAVES && sonar.params.leaf_model == LeafModel::Paper {
+            let stride = (cands.len() / SAMPLE).max(1);
+            let sample: Vec<LeafTerm> = cands
+                .iter()
+                .step_by(stride)
+                .filter_map(|&i| classify_member(scene, sonar, pose, i))
+                .map(|m| leaf_term(sonar, scene, &m))
+                .collect();
+            let refs: Vec<&LeafTerm> = sample.iter().collect();
+            let p = choose_nodes_from(sonar, plan, &refs);
+            if p < plan.p {
+                small_plan = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p)?;
+                &small_plan
+            } else {
+                plan
+            }
+        } else {
+            plan
+        };
+    let parts: Vec<Part> = cands
+        .par_chunks(chunk_len(cands.len()))
+        .map(|c| pulse_chunk(scene, sonar, pose, first, c))
+        .collect();
+    if sonar.params.too_close == TooClose::Error {
+        if let Some((leaf, range)) = parts
+            .iter()
+            .filter_map(|p| p.too_close)
+            .min_by_key(|&(leaf, _)| leaf)
+        {
+            return Err(Error::TooClose {
+                pose: pose_index,
+                leaf,
+                range,
+                min_range: sonar.params.min_range,
+            });
+        }
+    }
+    let mut parts = parts.into_iter();
+    let head = parts.next();
+    let m = sonar.n_bins();
+    let Some(mut acc) = head else {
+        return Ok((vec![0.0; m], vec![0.0; m], 0));
+    };
+    for part in parts {
+        for (g, v) in acc.grid.iter_mut().zip(&part.grid) {
+            *g += v;
+        }
+        acc.deferred.extend_from_slice(&part.deferred);
+        acc.count += part.count;
+    }
+    let (mut re, mut im) = finish_grid(sonar, first, &acc.grid, (vec![0.0; m], vec![0.0; m]));
+    if !acc.deferred.is_empty() {
+        let (r2, i2, _) = fast_sum_fixed(sonar, plan, &acc.deferred, false);
+        for j in 0..m {
+            re[j] += r2[j];
+            im[j] += i2[j];
+        }
+    }
+    Ok((re, im, acc.count))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sonar::{LobeRule, SonarParams};
+    use crate::spectrum::band_spectrum;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// `n` leaves in a box in front of the origin: radii 0.5 mm - 5 cm, random normals.
+    fn scene(n: usize, seed: u64) -> Scene {
+        let mut s = seed;
+        let mut c = Vec::with_capacity(n);
+        let mut nv = Vec::with_capacity(n);
+        let mut r = Vec::with_capacity(n);
+        for _ in 0..n {
+            c.push([
+                0.3 + 9.0 * lcg(&mut s),
+                -3.0 + 6.0 * lcg(&mut s),
+                -3.0 + 6.0 * lcg(&mut s),
+            ]);
+            let (z, ph) = (
+                2.0 * lcg(&mut s) - 1.0,
+                2.0 * std::f64::consts::PI * lcg(&mut s),
+            );
+            let q = (1.0 - z * z).sqrt();
+            nv.push([q * ph.cos(), q * ph.sin(), z]);
+            r.push(0.0005 * 100f64.powf(lcg(&mut s)));
+        }
+        Scene::new(c, nv, r).unwrap()
+    }
+
+    fn sonars() -> Vec<Sonar> {
+        let mut out = Vec::new();
+        for lobe in [
+            None,
+            Some(LobeRule::Cone {
+                half_angle: 60f64.to_radians(),
+            }),
+        ] {
+            for model in [LeafModel::Paper, LeafModel::PhysicalOptics] {
+                let mut p = SonarParams::with_beamwidth(40f64.to_radians()).unwrap();
+                p.min_ka = 0.01;
+                p.leaf_model = model;
+                if let Some(l) = lobe {
+                    p.lobe = l;
+                }
+                out.push(Sonar::new(p).unwrap());
+            }
+        }
+        out
+    }
+
+    fn rel_l2(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> f64 {
+        let mut num = 0.0;
+        let mut den = 0.0;
+        for j in 0..a.0.len() {
+            num += (a.0[j] - b.0[j]).powi(2) + (a.1[j] - b.1[j]).powi(2);
+            den += b.0[j].powi(2) + b.1[j].powi(2);
+        }
+        (num / den).sqrt()
+    }
+
+    #[test]
+    fn fused_pulse_is_within_tol_of_the_exact_sum_and_counts_the_members() {
+        let sc = scene(20_000, 3);
+        let pose = Pose::new([0.0, 0.1, -0.2], [1.0, 0.05, 0.0], [0.0, 0.0, 1.0]).unwrap();
+        for s in sonars() {
+            let mem = crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).unwrap();
+            assert!(mem.len() > 2000, "{}", mem.len());
+            let (er, ei) = band_spectrum(&s, &sc, &mem);
+            let cands = candidates(&sc, &s, &pose, Search::Bvh);
+            for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
+                let plan = FastPlan::new(&s, tol).unwrap();
+                let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands).unwrap();
+                assert_eq!(n as usize, mem.len());
+                let err = rel_l2((&re, &im), (&er, &ei));
+                assert!(err <= tol, "{:?} tol {tol:e}: {err:e}", s.params.leaf_model);
+            }
+        }
+    }
+
+    #[test]
+    fn fused_pulse_is_bit_identical_for_one_and_two_threads() {
+        let sc = scene(150_000, 5);
+        let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+        let s = &sonars()[2];
+        let plan = FastPlan::new(s, 1e-6).unwrap();
+        let cands = candidates(&sc, s, &pose, Search::Bvh);
+        assert!(cands.len() > 2 * chunk_len(cands.len()));
+        let a = fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let b = pool.install(|| fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap());
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn bvh_candidates_come_in_ascending_storage_order() {
+        let sc = scene(50_000, 9);
+        assert_eq!(sc.node_ranges.len(), sc.bvh.nodes.len());
+        let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.2, 0.0], [0.0, 0.0, 1.0]).unwrap();
+        for s in sonars() {
+            let c = candidates(&sc, &s, &pose, Search::Bvh);
+            assert!(!c.is_empty());
+            assert!(c.windows(2).all(|w| w[0] < w[1]));
+        }
+        let mut ids = sc.ids.clone();
+        ids.sort_unstable();
+        assert!(ids.iter().enumerate().all(|(k, &i)| i as usize == k));
+    }
+
+    #[test]
+    fn a_too_close_leaf_is_reported_by_the_callers_smallest_index() {
+        let sc = scene(20_000, 3);
+        let s = &sonars()[0];
+        // every leaf within 1 m of this pose is too close (min_range 1 m)
+        let mut p = s.params.clone();
+        p.min_range = 1.0;
+        let s = Sonar::new(p).unwrap();
+        let pose = Pose::new([0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+        let want = (0..sc.len())
+            .filter(|&k| {
+                let c = sc.centers[k];
+                let d = [c[0] - 0.5, c[1], c[2]];
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() < 1.0
+            })
+            .map(|k| sc.ids[k] as usize)
+            .min()
+            .unwrap();
+        let plan = FastPlan::new(&s, 1e-6).unwrap();
+        let cands = candidates(&sc, &s, &pose, Search::Bvh);
+        for res in [
+            fast_pulse(&sc, &s, &plan, &pose, 0, &cands).map(|_| ()),
+            crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).map(|_| ()),
+        ] {
+            match res {
+                Err(Error::TooClose { leaf, .. }) => assert_eq!(leaf, want),
+                other => panic!("expected a too-close error, got {other:?}"),
+            }
+        }
+    }
+}
