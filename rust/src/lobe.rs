@@ -382,6 +382,33 @@ pub(crate) struct BlockView {
     pub sin_beta: [f64; CB],
 }
 
+impl BlockView {
+    /// Lane `k` (candidate `i` at range `r`) as a member, or None when it does not count.
+    #[inline(always)]
+    pub(crate) fn member(
+        &self,
+        k: usize,
+        i: u32,
+        r: f64,
+        scene: &Scene,
+        sonar: &Sonar,
+        pose: &Pose,
+    ) -> Option<Member> {
+        match self.verdict[k] {
+            1 => Some(Member {
+                index: i,
+                range: r,
+                gain: self.gain[k],
+                beta: self.beta[k],
+                cos_beta: self.cos_beta[k],
+                sin_beta: self.sin_beta[k],
+            }),
+            2 => classify_member(scene, sonar, pose, i),
+            _ => None,
+        }
+    }
+}
+
 /// The vector part of the exact test for up to [`CB`] candidates `(index, range)` already
 /// within `[min_range, range_limit]`. Range, direction and the cone test use the same f64
 /// operations as [`classify`] (so they decide identically); azimuth, elevation, gain and
@@ -555,18 +582,7 @@ fn classify_many(scene: &Scene, sonar: &Sonar, pose: &Pose, chunk: &[u32]) -> Pa
     for block in near.chunks(CB) {
         let v = classify_block(scene, sonar, pose, block);
         for (k, &(i, r)) in block.iter().enumerate() {
-            match v.verdict[k] {
-                1 => out.push(Member {
-                    index: i,
-                    range: r,
-                    gain: v.gain[k],
-                    beta: v.beta[k],
-                    cos_beta: v.cos_beta[k],
-                    sin_beta: v.sin_beta[k],
-                }),
-                2 => out.extend(classify_member(scene, sonar, pose, i)),
-                _ => {}
-            }
+            out.extend(v.member(k, i, r, scene, sonar, pose));
         }
     }
     (out, too_close)

@@ -17,9 +17,7 @@ use crate::fast::{
     ADAPT_MIN_LEAVES, LB,
 };
 use crate::kernel::{paper_regime, PaperRegime};
-use crate::lobe::{
-    bvh_candidates, classify_block, classify_member, near_candidates, Member, Search, CB,
-};
+use crate::lobe::{bvh_candidates, classify_block, classify_member, near_candidates, Search, CB};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
@@ -97,20 +95,8 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         for block in near.chunks(CB) {
             let v = classify_block(scene, sonar, pose, block);
             for (k, &(i, r)) in block.iter().enumerate() {
-                let mb = match v.verdict[k] {
-                    1 => Member {
-                        index: i,
-                        range: r,
-                        gain: v.gain[k],
-                        beta: v.beta[k],
-                        cos_beta: v.cos_beta[k],
-                        sin_beta: v.sin_beta[k],
-                    },
-                    2 => match classify_member(scene, sonar, pose, i) {
-                        Some(m) => m,
-                        None => continue,
-                    },
-                    _ => continue,
+                let Some(mb) = v.member(k, i, r, scene, sonar, pose) else {
+                    continue;
                 };
                 part.count += 1;
                 let t = leaf_term(sonar, scene, &mb);
