@@ -122,21 +122,16 @@ impl Scene {
         // subtree's leaves are one contiguous range and a traversal reads them in order); the
         // leaf nodes are renumbered to index storage directly.
         let n = centers.len();
-        let ids = dfs_order(&mut bvh, n).unwrap_or_else(|| (0..n as u32).collect());
-        let is_perm = bvh.primitive_indices.len() == n
-            && bvh
-                .primitive_indices
-                .iter()
-                .enumerate()
-                .all(|(k, &i)| i as usize == k);
+        let (ids, node_ranges) = match dfs_order(&mut bvh, n) {
+            Some(ids) => {
+                let ranges = subtree_ranges(&bvh);
+                (ids, ranges)
+            }
+            None => ((0..n as u32).collect(), Vec::new()),
+        };
         let permute = |v: &[V3]| -> Vec<V3> { ids.iter().map(|&i| v[i as usize]).collect() };
         let (centers, normals) = (permute(&centers), permute(&normals));
         let radii: Vec<f64> = ids.iter().map(|&i| radii[i as usize]).collect();
-        let node_ranges = if is_perm {
-            subtree_ranges(&bvh)
-        } else {
-            Vec::new()
-        };
         let build_time = start.elapsed();
         let radius_pow_b = radii.par_iter().map(|a| a.powf(PAPER_BP)).collect();
         let radius_pow_p = radii.par_iter().map(|a| a.powf(PAPER_PP)).collect();
