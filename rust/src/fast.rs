@@ -13,8 +13,14 @@
 //! `P` type-1 NUFFTs that share their points, so each leaf's kernel weights are computed once
 //! and reused for every channel. The error budget: the interpolation error of each leaf and the
 //! NUFFT error are each held to `tol / 5`. A leaf whose last Chebyshev coefficient says its
-//! interpolant may err more (kinked leaves, where `cos(B(c) beta)` crosses zero in the band;
-//! physical-optics leaves with diffraction nulls in the band) is summed exactly instead.
+//! interpolant may err more (physical-optics leaves with diffraction nulls in the band, a few
+//! others) is summed exactly instead.
+//!
+//! Kinked paper-model leaves, where `cos(B(c) beta)` crosses zero inside the band so that the
+//! factor `max(0, g)` has a corner, are not summed exactly: `g` itself is smooth, so it goes
+//! through the NUFFT like any leaf and its interpolant is subtracted, bin by bin, on the side
+//! where the factor is zero (or, when the live side is the shorter, only that side is added,
+//! bin by bin). See [`paper_batch`].
 
 use crate::error::{invalid, Result};
 use crate::kernel::{cis_neg, paper_regime, NodeTables, PaperRegime, LANES};
@@ -32,7 +38,7 @@ use crate::vmath::{cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, exp_nonpos_d, sin
 use multiversion::multiversion;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// First positive zero of the Bessel function J1.
 const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
@@ -71,6 +77,10 @@ pub struct FastPlan {
     cheb_last: Vec<f64>,
     /// `l_q(t_m)`, row-major (M, P).
     lagrange: Vec<f64>,
+    /// `l_q(t_m)` by node, row-major (P, M + LB), zero past the band: whole vectors of bins.
+    lagrange_t: Vec<f64>,
+    /// The nodes' band-bin positions.
+    node_x: Vec<f64>,
     pub nufft: Type1Plan,
     /// `m_c = M / 2`: output mode `k` is band bin `m = k + m_c`.
     m_c: usize,
@@ -94,12 +104,13 @@ impl FastPlan {
             .map(|q| ((2 * q + 1) as f64 * PI / (2 * p) as f64).cos())
             .collect();
         let half = (m as f64 - 1.0) / 2.0;
-        let mut node_x: Vec<f64> = tn.iter().map(|&t| half * (1.0 + t)).collect();
+        let node_x: Vec<f64> = tn.iter().map(|&t| half * (1.0 + t)).collect();
         let padded = p.div_ceil(LANES) * LANES;
-        node_x.resize(padded, node_x[0]);
+        let mut padded_x = node_x.clone();
+        padded_x.resize(padded, node_x[0]);
         let atten = |x: f64| sonar.atten_at(x);
         let nodes = NodeTables::at(
-            &node_x,
+            &padded_x,
             1,
             &|x| sonar.wavenumber_at(x),
             if sonar.params.atmosphere.is_some() {
@@ -128,6 +139,13 @@ impl FastPlan {
                 lagrange.push(l);
             }
         }
+        let row = m + LB;
+        let mut lagrange_t = vec![0.0; p * row];
+        for j in 0..m {
+            for q in 0..p {
+                lagrange_t[q * row + j] = lagrange[j * p + q];
+            }
+        }
         let nufft = Type1Plan::new(m, tol / 5.0)?;
         Ok(FastPlan {
             tol,
@@ -135,6 +153,8 @@ impl FastPlan {
             nodes,
             cheb_last,
             lagrange,
+            lagrange_t,
+            node_x,
             nufft,
             m_c: m / 2,
         })
@@ -247,39 +267,37 @@ fn po_node_values(
 /// caller sums it exactly).
 #[inline(always)]
 pub(crate) fn po_leaf(sonar: &Sonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [f64]) -> bool {
-    let (p, glen, w) = (plan.p, plan.nufft.grid_len(), plan.nufft.w);
+    let p = plan.p;
     let sp = &sonar.params;
     let (mut fr, mut fi) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
     match po_node_values(sonar, plan, t, &mut fr, &mut fi) {
         Route::Skip => true,
         Route::Direct => false,
         Route::Spread => {
-            let mut wts = [0.0; MAX_W];
-            let mut wd = [0.0; 2 * MAX_W];
-            let mut st = [(0.0, 0.0); MAX_NODES];
             let q = CyclesPerBin::new(t.range, sp.fs, sp.n_samples, sp.sound_speed);
             let mut x = q.frac_at(1.0);
             if x < 0.0 {
                 x += 1.0;
             }
             let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
-            let l0 = plan.nufft.weights(x, &mut wts);
-            for j in 0..w {
-                wd[2 * j] = wts[j];
-                wd[2 * j + 1] = wts[j];
-            }
+            let (l0, u) = plan.nufft.offset(x);
+            let (mut sr, mut si) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
             for c in 0..p {
-                st[c] = (fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr);
+                sr[c] = fr[c] * pr - fi[c] * pi;
+                si[c] = fr[c] * pi + fi[c] * pr;
             }
-            spread_one(grid, glen, p, w, l0, &wd, &st);
+            spread_one(plan, grid, u, l0, &sr, &si);
             true
         }
     }
 }
 
-/// One task's share: spread grids (P channels, interleaved re/im) and the exactly summed leaves.
+/// One task's share: spread grids (P channels, each a real then an imaginary plane), the terms
+/// added bin by bin, and the leaves deferred to a later pass.
 struct Partial {
     grid: Vec<f64>,
+    /// Terms added straight to band bins (kinked leaves' sides).
+    direct: Direct,
     /// Leaves (indices into the chunk, ascending) the interpolation cannot represent to tol.
     deferred: Vec<usize>,
 }
@@ -287,44 +305,56 @@ struct Partial {
 /// Leaves per vector batch of the fast path.
 pub(crate) const LB: usize = 8;
 
-/// Spread one leaf: strengths `s_q` (one per channel) times the kernel weights `wd` (each
-/// duplicated for re and im, zero past the kernel's width) onto `WS` complex grid points of
-/// every channel from index `l0`. Fixed width, so the inner loop is whole vectors.
+/// Spread one leaf: its kernel weights (from the piecewise polynomials at offset `u`, lanes =
+/// taps, zero past the kernel's width) times the strengths `sr + j si` (one per channel) onto
+/// `WS` grid points of every channel from index `l0`. Channel `c` holds its real parts at
+/// `grid[2 c glen..]` and its imaginary parts at `grid[(2 c + 1) glen..]`, so the weights
+/// multiply whole vectors and every strength is a broadcast scalar.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn spread_fixed<const WS: usize>(
     grid: &mut [f64],
     glen: usize,
     p: usize,
+    horner: &[[f64; MAX_W]],
+    u: f64,
     l0: usize,
-    wd: &[f64; 2 * MAX_W],
-    s: &[(f64, f64)],
+    sr: &[f64; MAX_NODES],
+    si: &[f64; MAX_NODES],
 ) {
-    for (c, &(sr, si)) in s.iter().enumerate().take(p) {
-        let start = 2 * (c * glen + l0);
-        let row: &mut [f64] = &mut grid[start..start + 2 * WS];
-        for j in 0..2 * WS {
-            let sv = if j % 2 == 0 { sr } else { si };
-            row[j] = wd[j].mul_add(sv, row[j]);
+    let mut wv = [0.0f64; WS];
+    for c in horner.iter().rev() {
+        for j in 0..WS {
+            wv[j] = wv[j].mul_add(u, c[j]);
+        }
+    }
+    for c in 0..p {
+        let (a, b) = (2 * c * glen + l0, (2 * c + 1) * glen + l0);
+        let re: &mut [f64; WS] = (&mut grid[a..a + WS]).try_into().unwrap();
+        for j in 0..WS {
+            re[j] = wv[j].mul_add(sr[c], re[j]);
+        }
+        let im: &mut [f64; WS] = (&mut grid[b..b + WS]).try_into().unwrap();
+        for j in 0..WS {
+            im[j] = wv[j].mul_add(si[c], im[j]);
         }
     }
 }
 
-/// [`spread_fixed`] at the plan's kernel width rounded up to whole vectors of 4 complex.
+/// [`spread_fixed`] at the plan's kernel width rounded up to whole vectors of 8 taps.
 #[inline(always)]
 fn spread_one(
+    plan: &FastPlan,
     grid: &mut [f64],
-    glen: usize,
-    p: usize,
-    w: usize,
+    u: f64,
     l0: usize,
-    wd: &[f64; 2 * MAX_W],
-    s: &[(f64, f64)],
+    sr: &[f64; MAX_NODES],
+    si: &[f64; MAX_NODES],
 ) {
-    match w {
-        0..=4 => spread_fixed::<4>(grid, glen, p, l0, wd, s),
-        5..=8 => spread_fixed::<8>(grid, glen, p, l0, wd, s),
-        9..=12 => spread_fixed::<12>(grid, glen, p, l0, wd, s),
-        _ => spread_fixed::<16>(grid, glen, p, l0, wd, s),
+    let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
+    match plan.nufft.w {
+        0..=8 => spread_fixed::<8>(grid, glen, p, h, u, l0, sr, si),
+        _ => spread_fixed::<16>(grid, glen, p, h, u, l0, sr, si),
     }
 }
 
@@ -408,7 +438,9 @@ fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
                 } else {
                     cos_0_pi_k::<12>(bc * beta[i])
                 };
-                let l = (ac * cx).max(0.0);
+                // unclamped: smooth leaves are positive anyway; for a kinked leaf this is the
+                // smooth extension `g` of its factor (see `paper_batch`)
+                let l = ac * cx;
                 let ei = e[h * LB + i];
                 let (se, ce) = if LEVEL == 2 {
                     sincos_unit_k::<6, 7>(ei)
@@ -539,9 +571,134 @@ pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafT
         .unwrap_or(p)
 }
 
+/// The first band bin where a kinked paper-model leaf's factor is nonzero: below it
+/// `B(c) beta >= pi/2` (the cosine is negative and `L` clamps to 0). `B` falls with frequency,
+/// so the bins split into a zero side `0..m*` and a live side `m*..M`.
+fn kink_bin(sonar: &Sonar, ap: f64, beta: f64) -> usize {
+    let tab = &sonar.tables;
+    let x = |m: usize| PAPER_B1.mul_add(tab.kp[m] * ap, PAPER_B0) * beta;
+    // x(lo) >= pi/2 > x(hi) holds for a kinked leaf; clamp for safety
+    let (mut lo, mut hi) = (0usize, tab.m - 1);
+    if x(lo) < FRAC_PI_2 {
+        return 0;
+    }
+    if x(hi) >= FRAC_PI_2 {
+        return tab.m;
+    }
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if x(mid) >= FRAC_PI_2 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// Add `sign g(m) exp(-2 pi j (k0 + m) q)` to `dre`, `dim` (unwindowed band bins, length at
+/// least `M + LB`) for the band bins `lo..hi`, with `g` the interpolant through the node
+/// values `gr + j gi`: the same values the NUFFT channels give for a spread leaf.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn add_interpolant(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    gr: &[f64; MAX_NODES],
+    gi: &[f64; MAX_NODES],
+    cq: &CyclesPerBin,
+    (lo, hi): (usize, usize),
+    sign: f64,
+    dre: &mut [f64],
+    dim: &mut [f64],
+) {
+    let row = sonar.n_bins() + LB;
+    let k0 = sonar.tables.k0;
+    // phases advance by LB bins per block (a rotation), re-anchored exactly every ANCHOR blocks;
+    // the lanes' offsets within a block are powers of the one-bin rotation
+    const ANCHOR: usize = 16;
+    let r1 = cis_neg_cycles(cq.frac_at(1.0));
+    let (mut offr, mut offi) = ([1.0f64; LB], [0.0f64; LB]);
+    for l in 1..LB {
+        (offr[l], offi[l]) = (
+            offr[l - 1].mul_add(r1.0, -offi[l - 1] * r1.1),
+            offr[l - 1].mul_add(r1.1, offi[l - 1] * r1.0),
+        );
+    }
+    let (rr, ri) = (
+        offr[LB - 1].mul_add(r1.0, -offi[LB - 1] * r1.1),
+        offr[LB - 1].mul_add(r1.1, offi[LB - 1] * r1.0),
+    );
+    let mut m0 = lo;
+    while m0 < hi {
+        let (br, bi) = cis_neg_cycles(cq.frac_at(k0 + m0 as f64));
+        let (mut pr, mut pi) = ([0.0; LB], [0.0; LB]);
+        for l in 0..LB {
+            pr[l] = br.mul_add(offr[l], -bi * offi[l]);
+            pi[l] = br.mul_add(offi[l], bi * offr[l]);
+        }
+        let end = (m0 + ANCHOR * LB).min(hi);
+        while m0 < end {
+            let (mut vr, mut vi) = ([0.0; LB], [0.0; LB]);
+            for q in 0..plan.p {
+                let lq: &[f64; LB] = plan.lagrange_t[q * row + m0..q * row + m0 + LB]
+                    .try_into()
+                    .unwrap();
+                for l in 0..LB {
+                    vr[l] = lq[l].mul_add(gr[q], vr[l]);
+                    vi[l] = lq[l].mul_add(gi[q], vi[l]);
+                }
+            }
+            let or: &mut [f64; LB] = (&mut dre[m0..m0 + LB]).try_into().unwrap();
+            let oi: &mut [f64; LB] = (&mut dim[m0..m0 + LB]).try_into().unwrap();
+            for l in 0..LB {
+                let w = if m0 + l < hi { sign } else { 0.0 };
+                let cr = vr[l].mul_add(pr[l], -vi[l] * pi[l]);
+                let ci = vr[l].mul_add(pi[l], vi[l] * pr[l]);
+                or[l] = w.mul_add(cr, or[l]);
+                oi[l] = w.mul_add(ci, oi[l]);
+                let t = pr[l].mul_add(rr, -pi[l] * ri);
+                pi[l] = pr[l].mul_add(ri, pi[l] * rr);
+                pr[l] = t;
+            }
+            m0 += LB;
+        }
+    }
+}
+
+/// Unwindowed band-bin accumulators (length `M + LB`) for the terms a fast pass adds directly.
+pub(crate) struct Direct {
+    pub re: Vec<f64>,
+    pub im: Vec<f64>,
+}
+
+impl Direct {
+    pub(crate) fn new(m: usize) -> Direct {
+        Direct {
+            re: vec![0.0; m + LB],
+            im: vec![0.0; m + LB],
+        }
+    }
+
+    pub(crate) fn add(&mut self, other: &Direct) {
+        for (a, b) in self.re.iter_mut().zip(&other.re) {
+            *a += b;
+        }
+        for (a, b) in self.im.iter_mut().zip(&other.im) {
+            *a += b;
+        }
+    }
+}
+
 /// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
-/// leaves (lanes), then the spreading; returns which leaves failed the smoothness check (not
-/// spread: the caller defers them).
+/// or kinked leaves (lanes), then the spreading; returns which leaves failed the smoothness
+/// check (not spread: the caller defers them).
+///
+/// A kinked leaf's factor is `max(0, g)` with `g` smooth (the unclamped cosine), zero on the
+/// bins `0..m*` and `g` on `m*..M`. When the zero side is the shorter, `g` is spread and
+/// its interpolant is subtracted on the zero side; otherwise the interpolant is added on the
+/// live side alone. Either way the cost in bins is at most `M / 2`, at a few flops per bin,
+/// and the error is that of the interpolant on the live side, checked against the peak there.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn paper_batch<const ATTEN: bool>(
@@ -549,25 +706,46 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
     plan: &FastPlan,
     batch: &[&LeafTerm],
     grid: &mut [f64],
+    direct: &mut Direct,
 ) -> [bool; LB] {
-    let (p, w, glen) = (plan.p, plan.nufft.w, plan.nufft.grid_len());
+    let (p, w) = (plan.p, plan.nufft.w);
     let sp = &sonar.params;
     let n = batch.len();
+    let m = sonar.n_bins();
     let [amp, range, beta, a, ap, aq] = lanes_of(batch);
     let (fr, fi) = paper_nodes::<ATTEN>(plan, &amp, &range, &beta, &a, &ap, &aq);
     // Smoothness check per lane: the last Chebyshev coefficient against the lane's peak.
     let mut ok = [true; LB];
-    {
-        let (mut lr, mut li, mut peak) = ([0.0; LB], [0.0; LB], [0.0f64; LB]);
-        for q in 0..p {
-            for i in 0..LB {
-                lr[i] = plan.cheb_last[q].mul_add(fr[q][i], lr[i]);
-                li[i] = plan.cheb_last[q].mul_add(fi[q][i], li[i]);
-                peak[i] = peak[i].max(fr[q][i].abs()).max(fi[q][i].abs());
-            }
-        }
+    let (mut lr, mut li, mut peak) = ([0.0; LB], [0.0; LB], [0.0f64; LB]);
+    for q in 0..p {
         for i in 0..LB {
-            ok[i] = lr[i].abs().max(li[i].abs()) <= 2.0 * plan.tol * peak[i];
+            lr[i] = plan.cheb_last[q].mul_add(fr[q][i], lr[i]);
+            li[i] = plan.cheb_last[q].mul_add(fi[q][i], li[i]);
+            peak[i] = peak[i].max(fr[q][i].abs()).max(fi[q][i].abs());
+        }
+    }
+    for i in 0..LB {
+        ok[i] = lr[i].abs().max(li[i].abs()) <= 2.0 * plan.tol * peak[i];
+    }
+    // Kinked lanes (B(c) beta reaches pi/2 at the band's low end): the first live bin, and the
+    // check against the peak on the live side.
+    let kp0 = sonar.tables.kp[0];
+    let mut kink = [usize::MAX; LB];
+    let mut any_kink = false;
+    for i in 0..LB {
+        any_kink |= PAPER_B1.mul_add(kp0 * ap[i], PAPER_B0) * beta[i] >= FRAC_PI_2;
+    }
+    if any_kink {
+        for i in 0..n {
+            if PAPER_B1.mul_add(kp0 * ap[i], PAPER_B0) * beta[i] < FRAC_PI_2 {
+                continue;
+            }
+            let mk = kink_bin(sonar, ap[i], beta[i]);
+            kink[i] = mk;
+            let live = (0..p)
+                .filter(|&q| plan.node_x[q] >= mk as f64)
+                .fold(0.0f64, |mx, q| mx.max(fr[q][i].abs()).max(fi[q][i].abs()));
+            ok[i] = live > 0.0 && lr[i].abs().max(li[i].abs()) <= 2.0 * plan.tol * live;
         }
     }
     // Phases and grid positions from the exactly reduced delay, lanes = leaves.
@@ -579,7 +757,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         x[i] = if f < 0.0 { f + 1.0 } else { f };
         (pr[i], pi[i]) = cis_neg_cycles(cq.frac_at(shift));
     }
-    // Kernel weights from the piecewise polynomials, lanes = leaves.
+    // Grid positions, lanes = leaves (the weights follow per leaf, lanes = taps).
     let nf = plan.nufft.nf as f64;
     let mut l0f = [0.0; LB];
     let mut u = [0.0; LB];
@@ -588,37 +766,34 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         l0f[i] = left.ceil();
         u[i] = l0f[i] - left;
     }
-    let mut wts = [[0.0; LB]; MAX_W];
-    for (j, wj) in wts.iter_mut().enumerate().take(w) {
-        let mut acc = [0.0f64; LB];
-        for c in plan.nufft.horner.iter().rev() {
-            for i in 0..LB {
-                acc[i] = acc[i].mul_add(u[i], c[j]);
-            }
-        }
-        *wj = acc;
-    }
-    // Spread each lane (weights past the kernel's width stay zero).
-    let mut wd = [0.0; 2 * MAX_W];
-    let mut st = [(0.0, 0.0); MAX_NODES];
+    // Spread each lane.
+    let (mut sr, mut si) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
     let mut failed = [false; LB];
     for i in 0..n {
         if !ok[i] {
             failed[i] = true;
             continue;
         }
-        for j in 0..w {
-            wd[2 * j] = wts[j][i];
-            wd[2 * j + 1] = wts[j][i];
+        if kink[i] != usize::MAX {
+            let mk = kink[i];
+            let cq = CyclesPerBin::new(range[i], sp.fs, sp.n_samples, sp.sound_speed);
+            let gr: [f64; MAX_NODES] = std::array::from_fn(|q| fr[q][i]);
+            let gi: [f64; MAX_NODES] = std::array::from_fn(|q| fi[q][i]);
+            if m - mk <= mk {
+                // live side the shorter: add it directly, spread nothing
+                let (dre, dim) = (&mut direct.re, &mut direct.im);
+                add_interpolant(sonar, plan, &gr, &gi, &cq, (mk, m), 1.0, dre, dim);
+                continue;
+            }
+            let (dre, dim) = (&mut direct.re, &mut direct.im);
+            add_interpolant(sonar, plan, &gr, &gi, &cq, (0, mk), -1.0, dre, dim);
         }
         for q in 0..p {
-            st[q] = (
-                fr[q][i] * pr[i] - fi[q][i] * pi[i],
-                fr[q][i] * pi[i] + fi[q][i] * pr[i],
-            );
+            sr[q] = fr[q][i] * pr[i] - fi[q][i] * pi[i];
+            si[q] = fr[q][i] * pi[i] + fi[q][i] * pr[i];
         }
         let l0 = (l0f[i] as i64 + plan.nufft.pad as i64) as usize;
-        spread_one(grid, glen, p, w, l0, &wd, &st);
+        spread_one(plan, grid, u[i], l0, &sr, &si);
     }
     failed
 }
@@ -627,6 +802,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
 fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = vec![0.0; 2 * p * glen];
+    let mut direct = Direct::new(sonar.n_bins());
     let mut direct_ids: Vec<usize> = Vec::new();
     let sp = &sonar.params;
     match sp.leaf_model {
@@ -638,14 +814,15 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             let flush = |batch: &mut Vec<&LeafTerm>,
                          ids: &mut Vec<usize>,
                          grid: &mut [f64],
+                         sums: &mut Direct,
                          direct: &mut Vec<usize>| {
                 if batch.is_empty() {
                     return;
                 }
                 let failed = if atten {
-                    paper_batch::<true>(sonar, plan, batch, grid)
+                    paper_batch::<true>(sonar, plan, batch, grid, sums)
                 } else {
-                    paper_batch::<false>(sonar, plan, batch, grid)
+                    paper_batch::<false>(sonar, plan, batch, grid, sums)
                 };
                 direct.extend(
                     ids.iter()
@@ -658,17 +835,29 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             for (idx, t) in terms.iter().enumerate() {
                 match paper_regime(&sonar.tables, t) {
                     PaperRegime::Zero => {}
-                    PaperRegime::Smooth => {
+                    PaperRegime::Smooth | PaperRegime::Kinked => {
                         batch.push(t);
                         ids.push(idx);
                         if batch.len() == LB {
-                            flush(&mut batch, &mut ids, &mut grid, &mut direct_ids);
+                            flush(
+                                &mut batch,
+                                &mut ids,
+                                &mut grid,
+                                &mut direct,
+                                &mut direct_ids,
+                            );
                         }
                     }
-                    PaperRegime::Kinked | PaperRegime::OutOfDomain => direct_ids.push(idx),
+                    PaperRegime::OutOfDomain => direct_ids.push(idx),
                 }
             }
-            flush(&mut batch, &mut ids, &mut grid, &mut direct_ids);
+            flush(
+                &mut batch,
+                &mut ids,
+                &mut grid,
+                &mut direct,
+                &mut direct_ids,
+            );
         }
         LeafModel::PhysicalOptics => {
             for (idx, t) in terms.iter().enumerate() {
@@ -683,6 +872,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
     direct_ids.sort_unstable();
     Partial {
         grid,
+        direct,
         deferred: direct_ids,
     }
 }
@@ -735,10 +925,12 @@ pub(crate) fn fast_sum_fixed(
     let m = sonar.n_bins();
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = vec![0.0; 2 * p * glen];
+    let mut sums = Direct::new(m);
     let mut deferred: Vec<usize> = Vec::new();
     let mut offset = 0usize;
     let mut add = |part: Partial, len: usize| {
         deferred.extend(part.deferred.iter().map(|&i| i + offset));
+        sums.add(&part.direct);
         offset += len;
         for (g, v) in grid.iter_mut().zip(&part.grid) {
             *g += v;
@@ -757,14 +949,16 @@ pub(crate) fn fast_sum_fixed(
     }
     // Leaves the interpolation cannot represent: returned for a second pass, or summed by the
     // exact path (its fixed parallel chunks; the window is applied below, once, to both).
-    let direct = if defer || deferred.is_empty() {
-        (vec![0.0; m], vec![0.0; m])
-    } else {
+    if !(defer || deferred.is_empty()) {
         let rest: Vec<LeafTerm> = deferred.iter().map(|&i| terms[i]).collect();
         deferred.clear();
-        crate::spectrum::sum_terms_unwindowed(sonar, &rest)
-    };
-    let (re, im) = finish_grid(sonar, plan, &grid, direct);
+        let (r2, i2) = crate::spectrum::sum_terms_unwindowed(sonar, &rest);
+        for j in 0..m {
+            sums.re[j] += r2[j];
+            sums.im[j] += i2[j];
+        }
+    }
+    let (re, im) = finish_grid(sonar, plan, &grid, (sums.re, sums.im));
     (re, im, deferred)
 }
 
@@ -782,9 +976,11 @@ pub(crate) fn finish_grid(
     let modes: Vec<Vec<Complex64>> = grid
         .par_chunks(2 * glen)
         .map(|g| {
-            let mut cg: Vec<Complex64> = g
-                .chunks_exact(2)
-                .map(|v| Complex64::new(v[0], v[1]))
+            let (gr, gi) = g.split_at(glen);
+            let mut cg: Vec<Complex64> = gr
+                .iter()
+                .zip(gi)
+                .map(|(&r, &i)| Complex64::new(r, i))
                 .collect();
             let mut out = vec![Complex64::new(0.0, 0.0); m];
             plan.nufft.finish(&mut cg, &mut out);
@@ -890,6 +1086,57 @@ mod tests {
             .unwrap();
         let b = pool.install(|| fast_sum_terms(&s, &plan, &t));
         assert_eq!(a, b);
+    }
+
+    /// Kinked paper-model leaves only (the factor's cosine crosses zero inside the band).
+    fn kinked_terms(s: &Sonar, n: usize) -> Vec<LeafTerm> {
+        terms(40 * n)
+            .into_iter()
+            .filter(|t| paper_regime(&s.tables, t) == PaperRegime::Kinked)
+            .take(n)
+            .collect()
+    }
+
+    #[test]
+    fn kinked_leaves_are_within_tol_of_the_exact_sum_without_exact_sums() {
+        for atm in [None, Some(Atmosphere::default())] {
+            let s = sonar(atm, LeafModel::Paper);
+            let t = kinked_terms(&s, 400);
+            assert!(t.len() >= 200, "{}", t.len());
+            let exact = sum_terms(&s, &t);
+            for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
+                let plan = FastPlan::new(&s, tol).unwrap();
+                let (re, im, deferred) = fast_sum_fixed(&s, &plan, &t, true);
+                // (a few fail the check on their live side and are summed exactly)
+                assert!(
+                    deferred.len() * 4 <= t.len(),
+                    "tol {tol:e}: {} of {} deferred",
+                    deferred.len(),
+                    t.len()
+                );
+                let _ = (re, im);
+                let err = rel_l2(&fast_sum_terms(&s, &plan, &t), &exact);
+                assert!(err <= tol, "atm {} tol {tol:e}: {err:e}", atm.is_some());
+            }
+            // each kinked leaf alone, too (its own peak sets the scale)
+            let plan = FastPlan::new(&s, 1e-9).unwrap();
+            for leaf in t.iter().take(40) {
+                let one = std::slice::from_ref(leaf);
+                let err = rel_l2(&fast_sum_terms(&s, &plan, one), &sum_terms(&s, one));
+                assert!(err <= 1e-9, "{leaf:?}: {err:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn kink_bin_splits_the_band_where_the_factor_turns_on() {
+        let s = sonar(None, LeafModel::Paper);
+        for t in kinked_terms(&s, 100) {
+            let mk = kink_bin(&s, t.radius_pow_b, t.beta);
+            assert!(mk > 0 && mk < s.n_bins());
+            let x = |m: usize| PAPER_B1.mul_add(s.tables.kp[m] * t.radius_pow_b, PAPER_B0) * t.beta;
+            assert!(x(mk - 1) >= FRAC_PI_2 && x(mk) < FRAC_PI_2);
+        }
     }
 
     #[test]

@@ -195,6 +195,15 @@ impl Type1Plan {
         self.nf + 2 * self.pad
     }
 
+    /// The padded grid index of the first weight of the point `x` in [0, 1), and its offset
+    /// `u` in [0, 1) for the piecewise polynomials.
+    #[inline(always)]
+    pub fn offset(&self, x: f64) -> (usize, f64) {
+        let left = x * self.nf as f64 - self.w as f64 / 2.0;
+        let l0 = left.ceil();
+        ((l0 as i64 + self.pad as i64) as usize, l0 - left)
+    }
+
     /// Kernel weights of the point `x` in [0, 1) from the piecewise polynomials: fills
     /// `out[..w]` (zero past `w`) and returns the padded grid index of the first weight.
     #[inline(always)]

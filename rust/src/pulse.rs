@@ -6,14 +6,14 @@
 //! Determinism: the candidates come in the BVH's traversal order (sequential, so the same for
 //! any thread count) and are cut into chunks whose length depends only on their number; each
 //! chunk spreads into its own grid and the grids are added in chunk order. Leaves the first
-//! pass cannot represent (kinked or failing the smoothness check at the chosen node count, or
-//! decided on the detectable boundary by the libm test) are kept as terms, in chunk order, for
+//! pass cannot represent (failing the smoothness check at the chosen node count, or outside
+//! the paper model's domain) are kept as terms, in chunk order, for
 //! the plan's full node count or the exact sum ([`crate::fast::fast_sum_fixed`]). The set of
 //! counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf test.
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, fast_sum_fixed, finish_grid, paper_batch, po_leaf, FastPlan,
+    choose_nodes_from, fast_sum_fixed, finish_grid, paper_batch, po_leaf, Direct, FastPlan,
     ADAPT_MIN_LEAVES, LB,
 };
 use crate::kernel::{paper_regime, PaperRegime};
@@ -52,6 +52,7 @@ pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> 
 /// One chunk's share.
 struct Part {
     grid: Vec<f64>,
+    direct: Direct,
     deferred: Vec<LeafTerm>,
     count: u64,
     too_close: Option<(usize, f64)>,
@@ -63,6 +64,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut part = Part {
         grid: vec![0.0; 2 * p * glen],
+        direct: Direct::new(sonar.n_bins()),
         deferred: Vec::new(),
         count: 0,
         too_close: None,
@@ -78,9 +80,9 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         }
         let refs: [&LeafTerm; LB] = std::array::from_fn(|i| &batch[i.min(n - 1)]);
         let failed = if atten {
-            paper_batch::<true>(sonar, plan, &refs[..n], &mut part.grid)
+            paper_batch::<true>(sonar, plan, &refs[..n], &mut part.grid, &mut part.direct)
         } else {
-            paper_batch::<false>(sonar, plan, &refs[..n], &mut part.grid)
+            paper_batch::<false>(sonar, plan, &refs[..n], &mut part.grid, &mut part.direct)
         };
         for (t, f) in batch.iter().zip(failed) {
             if f {
@@ -108,13 +110,13 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
                 }
                 match paper_regime(&sonar.tables, &t) {
                     PaperRegime::Zero => {}
-                    PaperRegime::Smooth => {
+                    PaperRegime::Smooth | PaperRegime::Kinked => {
                         batch.push(t);
                         if batch.len() == LB {
                             flush(&mut batch, &mut part);
                         }
                     }
-                    PaperRegime::Kinked | PaperRegime::OutOfDomain => part.deferred.push(t),
+                    PaperRegime::OutOfDomain => part.deferred.push(t),
                 }
             }
         }
@@ -183,10 +185,11 @@ pub fn fast_pulse(
         for (g, v) in acc.grid.iter_mut().zip(&part.grid) {
             *g += v;
         }
+        acc.direct.add(&part.direct);
         acc.deferred.extend_from_slice(&part.deferred);
         acc.count += part.count;
     }
-    let (mut re, mut im) = finish_grid(sonar, first, &acc.grid, (vec![0.0; m], vec![0.0; m]));
+    let (mut re, mut im) = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
     if !acc.deferred.is_empty() {
         let (r2, i2, _) = fast_sum_fixed(sonar, plan, &acc.deferred, false);
         for j in 0..m {
