@@ -6,15 +6,16 @@
 //! Determinism: the candidates come in the BVH's traversal order (sequential, so the same for
 //! any thread count) and are cut into chunks whose length depends only on their number; each
 //! chunk spreads into its own grid and the grids are added in chunk order. Leaves the first
-//! pass cannot represent (failing the smoothness check at the chosen node count, or outside
-//! the paper model's domain) are kept as terms, in chunk order, for
+//! pass cannot represent (failing the smoothness check at the chosen node count, kinked with
+//! the shorter live side, or outside the paper model's domain) are kept as terms, in chunk
+//! order, for
 //! the plan's full node count or the exact sum ([`crate::fast::fast_sum_fixed`]). The set of
 //! counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf test.
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, fast_sum_fixed, finish_grid, paper_batch, po_leaf, Direct, FastPlan,
-    ADAPT_MIN_LEAVES, LB,
+    choose_nodes_from, fast_sum_fixed, finish_grid, kinked_spreads, paper_batch, po_leaf, Direct,
+    FastPlan, ADAPT_MIN_LEAVES, LB,
 };
 use crate::kernel::{paper_regime, PaperRegime};
 use crate::lobe::{bvh_candidates, classify_block, classify_member, near_candidates, Search, CB};
@@ -110,6 +111,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
                 }
                 match paper_regime(&sonar.tables, &t) {
                     PaperRegime::Zero => {}
+                    PaperRegime::Kinked if !kinked_spreads(sonar, &t) => part.deferred.push(t),
                     PaperRegime::Smooth | PaperRegime::Kinked => {
                         batch.push(t);
                         if batch.len() == LB {
