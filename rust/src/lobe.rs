@@ -423,21 +423,97 @@ pub(crate) fn classify_block(
     block: &[(u32, f64)],
 ) -> BlockView {
     let p = pose.position;
-    let (d, u, l) = (pose.forward, pose.up, pose.left);
-    let sp = &sonar.params;
-    let detectable = matches!(sp.lobe, LobeRule::Detectable { .. });
     let n = block.len();
-    // Gather (missing lanes repeat the last candidate), then branch-free loops over the lanes
-    // (each vectorises).
-    let (mut dx, mut dy, mut dz, mut r) = ([0.0; CB], [0.0; CB], [0.0; CB], [0.0; CB]);
-    let (mut nx, mut ny, mut nz) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+    // Gather (missing lanes repeat the last candidate).
+    let mut g = Gathered::default();
     for k in 0..CB {
         let (i, rk) = block[k.min(n - 1)];
         let c = scene.centers[i as usize];
         let nv = scene.normals[i as usize];
-        (dx[k], dy[k], dz[k], r[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2], rk);
-        (nx[k], ny[k], nz[k]) = (nv[0], nv[1], nv[2]);
+        (g.dx[k], g.dy[k], g.dz[k], g.r[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2], rk);
+        (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
     }
+    classify_lanes(sonar, pose, &g, n)
+}
+
+/// Offsets, ranges and normals of up to [`CB`] candidates, lanes.
+#[derive(Default)]
+struct Gathered {
+    dx: [f64; CB],
+    dy: [f64; CB],
+    dz: [f64; CB],
+    r: [f64; CB],
+    nx: [f64; CB],
+    ny: [f64; CB],
+    nz: [f64; CB],
+}
+
+/// The whole exact test for up to [`CB`] candidates, the range pass included (the fused
+/// pulse's path: no list of in-range candidates): as [`near_candidates`] then
+/// [`classify_block`], with the lanes' ranges in `r`. Lanes outside `[min_range,
+/// range_limit]` are out; the smallest caller index of a too-close leaf goes to `too_close`.
+#[inline(always)]
+pub(crate) fn classify_candidates(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    cands: &[u32],
+    too_close: &mut Option<(usize, f64)>,
+) -> (BlockView, [f64; CB]) {
+    let p = pose.position;
+    let sp = &sonar.params;
+    let n = cands.len();
+    let mut g = Gathered::default();
+    for k in 0..CB {
+        let i = cands[k.min(n - 1)] as usize;
+        let c = scene.centers[i];
+        let nv = scene.normals[i];
+        (g.dx[k], g.dy[k], g.dz[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
+        (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
+    }
+    // the range exactly as `classify` computes it
+    let mut inside = [false; CB];
+    let mut any_close = false;
+    for k in 0..CB {
+        g.r[k] = (g.dx[k] * g.dx[k] + g.dy[k] * g.dy[k] + g.dz[k] * g.dz[k]).sqrt();
+        any_close |= !(g.r[k] >= sp.min_range);
+        inside[k] = g.r[k] >= sp.min_range && g.r[k] <= sonar.range_limit;
+    }
+    if any_close {
+        for (k, &i) in cands.iter().enumerate() {
+            if !(g.r[k] >= sp.min_range) {
+                let id = scene.ids[i as usize] as usize;
+                if too_close.is_none_or(|(j, _)| id < j) {
+                    *too_close = Some((id, g.r[k]));
+                }
+            }
+        }
+    }
+    let mut v = classify_lanes(sonar, pose, &g, n);
+    for k in 0..CB {
+        if !inside[k] {
+            v.verdict[k] = 0;
+        }
+    }
+    (v, g.r)
+}
+
+/// [`classify_block`] on gathered lanes (`n` of them real; the rest repeat the last).
+/// Branch-free loops over the lanes (each vectorises).
+#[inline(always)]
+fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockView {
+    let (d, u, l) = (pose.forward, pose.up, pose.left);
+    let sp = &sonar.params;
+    let detectable = matches!(sp.lobe, LobeRule::Detectable { .. });
+    let Gathered {
+        dx,
+        dy,
+        dz,
+        r,
+        nx,
+        ny,
+        nz,
+    } = g;
     let (mut ex, mut ey, mut ez) = ([0.0; CB], [0.0; CB], [0.0; CB]);
     let (mut ed, mut el_, mut eu) = ([0.0; CB], [0.0; CB], [0.0; CB]);
     for k in 0..CB {

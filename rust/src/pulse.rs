@@ -18,7 +18,7 @@ use crate::fast::{
     FastPlan, ADAPT_MIN_LEAVES, LB,
 };
 use crate::kernel::{paper_regime, PaperRegime};
-use crate::lobe::{bvh_candidates, classify_block, classify_member, near_candidates, Search, CB};
+use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
@@ -26,7 +26,7 @@ use crate::spectrum::{leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
-/// Candidates per range pass (their `(index, range)` stay in L1).
+/// Chunk lengths are whole multiples of this.
 const SUB: usize = 1024;
 /// Candidates sampled to choose the node count.
 const SAMPLE: usize = 1024;
@@ -72,7 +72,6 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
     };
     let paper = sonar.params.leaf_model == LeafModel::Paper;
     let atten = !plan.nodes.atten.is_empty();
-    let mut near: Vec<(u32, f64)> = Vec::with_capacity(SUB);
     let mut batch: Vec<LeafTerm> = Vec::with_capacity(LB);
     let flush = |batch: &mut Vec<LeafTerm>, part: &mut Part| {
         let n = batch.len();
@@ -92,34 +91,30 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         }
         batch.clear();
     };
-    for sub in cands.chunks(SUB) {
-        near.clear();
-        near_candidates(scene, sonar, pose, sub, &mut near, &mut part.too_close);
-        for block in near.chunks(CB) {
-            let v = classify_block(scene, sonar, pose, block);
-            for (k, &(i, r)) in block.iter().enumerate() {
-                let Some(mb) = v.member(k, i, r, scene, sonar, pose) else {
-                    continue;
-                };
-                part.count += 1;
-                let t = leaf_term(sonar, scene, &mb);
-                if !paper {
-                    if !po_leaf(sonar, plan, &t, &mut part.grid) {
-                        part.deferred.push(t);
-                    }
-                    continue;
+    for block in cands.chunks(CB) {
+        let (v, range) = classify_candidates(scene, sonar, pose, block, &mut part.too_close);
+        for (k, &i) in block.iter().enumerate() {
+            let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) else {
+                continue;
+            };
+            part.count += 1;
+            let t = leaf_term(sonar, scene, &mb);
+            if !paper {
+                if !po_leaf(sonar, plan, &t, &mut part.grid) {
+                    part.deferred.push(t);
                 }
-                match paper_regime(&sonar.tables, &t) {
-                    PaperRegime::Zero => {}
-                    PaperRegime::Kinked if !kinked_spreads(sonar, &t) => part.deferred.push(t),
-                    PaperRegime::Smooth | PaperRegime::Kinked => {
-                        batch.push(t);
-                        if batch.len() == LB {
-                            flush(&mut batch, &mut part);
-                        }
+                continue;
+            }
+            match paper_regime(&sonar.tables, &t) {
+                PaperRegime::Zero => {}
+                PaperRegime::Kinked if !kinked_spreads(sonar, &t) => part.deferred.push(t),
+                PaperRegime::Smooth | PaperRegime::Kinked => {
+                    batch.push(t);
+                    if batch.len() == LB {
+                        flush(&mut batch, &mut part);
                     }
-                    PaperRegime::OutOfDomain => part.deferred.push(t),
                 }
+                PaperRegime::OutOfDomain => part.deferred.push(t),
             }
         }
     }
