@@ -1100,16 +1100,20 @@ mod tests {
         Sonar::new(p).unwrap()
     }
 
-    /// Leaves of every kind: tiny to huge, normal to grazing incidence (kinked and zero-L
-    /// leaves included), near and far.
-    fn terms(n: usize) -> Vec<LeafTerm> {
-        let mut seed = 7u64;
-        let mut u = || {
+    /// Uniform numbers in [0, 1) from an LCG seeded with `seed`.
+    fn uniforms(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
             seed = seed
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    /// Leaves of every kind: tiny to huge, normal to grazing incidence (kinked and zero-L
+    /// leaves included), near and far.
+    fn terms(n: usize) -> Vec<LeafTerm> {
+        let mut u = uniforms(7);
         (0..n)
             .map(|_| {
                 let radius = (0.0005f64.ln() + u() * (0.3f64.ln() - 0.0005f64.ln())).exp();
@@ -1223,13 +1227,7 @@ mod tests {
     fn erf_at_nodes_matches_libm_at_each_level() {
         // node ranges as the 60-80 kHz band gives them (half-width up to 0.051 (|z_c| + 1.5)),
         // and wider ones (the fallback)
-        let mut seed = 3u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = uniforms(3);
         for spread in [0.051, 0.3] {
             let mut worst = [0.0f64; 3];
             for _ in 0..2000 {

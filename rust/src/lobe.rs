@@ -472,14 +472,11 @@ pub(crate) fn classify_candidates(
         (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
     }
     // the range exactly as `classify` computes it
-    let mut inside = [false; CB];
-    let mut any_close = false;
     for k in 0..CB {
         g.r[k] = (g.dx[k] * g.dx[k] + g.dy[k] * g.dy[k] + g.dz[k] * g.dz[k]).sqrt();
-        any_close |= !(g.r[k] >= sp.min_range);
-        inside[k] = g.r[k] >= sp.min_range && g.r[k] <= sonar.range_limit;
     }
-    if any_close {
+    let inside = g.r.map(|r| r >= sp.min_range && r <= sonar.range_limit);
+    if g.r.iter().any(|&r| !(r >= sp.min_range)) {
         for (k, &i) in cands.iter().enumerate() {
             if !(g.r[k] >= sp.min_range) {
                 let id = scene.ids[i as usize] as usize;
@@ -490,9 +487,9 @@ pub(crate) fn classify_candidates(
         }
     }
     let mut v = classify_lanes(sonar, pose, &g, n);
-    for k in 0..CB {
-        if !inside[k] {
-            v.verdict[k] = 0;
+    for (verdict, ok) in v.verdict.iter_mut().zip(inside) {
+        if !ok {
+            *verdict = 0;
         }
     }
     (v, g.r)
