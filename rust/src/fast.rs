@@ -302,8 +302,9 @@ struct Partial {
     deferred: Vec<usize>,
 }
 
-/// Leaves per vector batch of the fast path.
-pub(crate) const LB: usize = 8;
+/// Leaves per vector batch of the fast path (16: two AVX-512 vectors per operation, for
+/// overlapping dependent chains).
+pub(crate) const LB: usize = 16;
 
 /// Spread one leaf: its kernel weights (from the piecewise polynomials at offset `u`, lanes =
 /// taps, zero past the kernel's width) times the strengths `sr + j si` (one per channel) onto
