@@ -33,6 +33,9 @@ pub struct Scene {
     pub node_ranges: Vec<(u32, u32)>,
     /// Wall time of the BVH build.
     pub build_time: Duration,
+    /// The smallest radius and the stored index of its first leaf (checked against the band's
+    /// lowest frequency by every simulation; found once here).
+    pub smallest: (usize, f64),
 }
 
 /// The f32 box that surely contains the f64 point (rounded outward), widened by `half` on
@@ -135,6 +138,14 @@ impl Scene {
         let build_time = start.elapsed();
         let radius_pow_b = radii.par_iter().map(|a| a.powf(PAPER_BP)).collect();
         let radius_pow_p = radii.par_iter().map(|a| a.powf(PAPER_PP)).collect();
+        let smallest = radii
+            .iter()
+            .copied()
+            .enumerate()
+            .fold(
+                (0, f64::INFINITY),
+                |acc, (i, a)| if a < acc.1 { (i, a) } else { acc },
+            );
         Ok(Scene {
             ids,
             centers,
@@ -145,6 +156,7 @@ impl Scene {
             bvh,
             node_ranges,
             build_time,
+            smallest,
         })
     }
 

@@ -25,15 +25,7 @@ pub struct Echoes {
 /// The leaf models hold for `k a >= min_ka`; refuse smaller leaves, naming the smallest.
 pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
     let k_lo = sonar.wavenumbers[0];
-    let (i, a) = scene
-        .radii
-        .iter()
-        .copied()
-        .enumerate()
-        .fold(
-            (0, f64::INFINITY),
-            |acc, (i, a)| if a < acc.1 { (i, a) } else { acc },
-        );
+    let (i, a) = scene.smallest;
     if k_lo * a < sonar.params.min_ka {
         let i = scene.ids[i];
         return invalid(format!(
