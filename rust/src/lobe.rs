@@ -277,8 +277,9 @@ pub fn test_box(
 /// (the exact test rejects the rest at a few nanoseconds each; a node test costs ~0.2 us).
 const SMALL_SUBTREE: u32 = 8;
 
-/// Visit every leaf index the BVH cannot rule out (a superset of the counting leaves).
-pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl FnMut(u32)) {
+/// Visit every leaf index the BVH cannot rule out (a superset of the counting leaves), a run
+/// of stored indices at a time (a whole subtree or a BVH leaf), in traversal order.
+pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl FnMut(&[u32])) {
     let bvh = &scene.bvh;
     if bvh.nodes.is_empty() {
         return;
@@ -312,14 +313,10 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
         if inside && !scene.node_ranges.is_empty() {
             // the whole subtree counts as candidates: its stored leaves are one range
             let (lo, hi) = scene.node_ranges[ni as usize];
-            for k in lo..hi {
-                visit(bvh.primitive_indices[k as usize]);
-            }
+            visit(&bvh.primitive_indices[lo as usize..hi as usize]);
         } else if node.is_leaf() {
             let first = node.first_index as usize;
-            for k in first..first + node.prim_count as usize {
-                visit(bvh.primitive_indices[k]);
-            }
+            visit(&bvh.primitive_indices[first..first + node.prim_count as usize]);
         } else {
             stack.push((node.first_index + 1, inside));
             stack.push((node.first_index, inside));

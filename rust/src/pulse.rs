@@ -43,7 +43,7 @@ pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> 
     match search {
         Search::Bvh => {
             let mut c = Vec::new();
-            bvh_candidates(scene, sonar, pose, |i| c.push(i));
+            bvh_candidates(scene, sonar, pose, |ids| c.extend_from_slice(ids));
             c
         }
         Search::BruteForce => (0..scene.len() as u32).collect(),
