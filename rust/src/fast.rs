@@ -886,30 +886,28 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
     let (p, glen) = (plan.p, plan.nufft.grid_len());
-    let mut grid = vec![0.0; 2 * p * glen];
-    let mut direct = Direct::new(sonar.n_bins());
-    let mut direct_ids: Vec<usize> = Vec::new();
-    let sp = &sonar.params;
-    match sp.leaf_model {
+    let mut part = Partial {
+        grid: vec![0.0; 2 * p * glen],
+        direct: Direct::new(sonar.n_bins()),
+        deferred: Vec::new(),
+    };
+    match sonar.params.leaf_model {
         LeafModel::Paper => {
             // Route by regime; smooth leaves go through the vector batches.
             let mut batch: Vec<&LeafTerm> = Vec::with_capacity(LB);
             let mut ids: Vec<usize> = Vec::with_capacity(LB);
             let atten = !plan.nodes.atten.is_empty();
-            let flush = |batch: &mut Vec<&LeafTerm>,
-                         ids: &mut Vec<usize>,
-                         grid: &mut [f64],
-                         sums: &mut Direct,
-                         direct: &mut Vec<usize>| {
+            let flush = |batch: &mut Vec<&LeafTerm>, ids: &mut Vec<usize>, part: &mut Partial| {
                 if batch.is_empty() {
                     return;
                 }
+                let (grid, sums) = (&mut part.grid, &mut part.direct);
                 let failed = if atten {
                     paper_batch::<true>(sonar, plan, batch, grid, sums)
                 } else {
                     paper_batch::<false>(sonar, plan, batch, grid, sums)
                 };
-                direct.extend(
+                part.deferred.extend(
                     ids.iter()
                         .zip(failed)
                         .filter_map(|(&id, f)| f.then_some(id)),
@@ -920,47 +918,31 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             for (idx, t) in terms.iter().enumerate() {
                 match paper_regime(&sonar.tables, t) {
                     PaperRegime::Zero => {}
-                    PaperRegime::Kinked if !kinked_spreads(sonar, t) => direct_ids.push(idx),
+                    PaperRegime::Kinked if !kinked_spreads(sonar, t) => part.deferred.push(idx),
                     PaperRegime::Smooth | PaperRegime::Kinked => {
                         batch.push(t);
                         ids.push(idx);
                         if batch.len() == LB {
-                            flush(
-                                &mut batch,
-                                &mut ids,
-                                &mut grid,
-                                &mut direct,
-                                &mut direct_ids,
-                            );
+                            flush(&mut batch, &mut ids, &mut part);
                         }
                     }
-                    PaperRegime::OutOfDomain => direct_ids.push(idx),
+                    PaperRegime::OutOfDomain => part.deferred.push(idx),
                 }
             }
-            flush(
-                &mut batch,
-                &mut ids,
-                &mut grid,
-                &mut direct,
-                &mut direct_ids,
-            );
+            flush(&mut batch, &mut ids, &mut part);
         }
         LeafModel::PhysicalOptics => {
             for (idx, t) in terms.iter().enumerate() {
-                if !po_leaf(sonar, plan, t, &mut grid) {
-                    direct_ids.push(idx);
+                if !po_leaf(sonar, plan, t, &mut part.grid) {
+                    part.deferred.push(idx);
                 }
             }
         }
     }
     // Leaves the interpolation cannot represent to tol (ascending): the caller gives them a
     // second pass or sums them exactly.
-    direct_ids.sort_unstable();
-    Partial {
-        grid,
-        direct,
-        deferred: direct_ids,
-    }
+    part.deferred.sort_unstable();
+    part
 }
 
 /// The windowed band spectrum `(re, im)` of the members by the fast method.
