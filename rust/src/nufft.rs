@@ -208,9 +208,7 @@ impl Type1Plan {
     /// `out[..w]` (zero past `w`) and returns the padded grid index of the first weight.
     #[inline(always)]
     pub fn weights(&self, x: f64, out: &mut [f64; MAX_W]) -> usize {
-        let xs = x * self.nf as f64;
-        let l0 = (xs - self.w as f64 / 2.0).ceil();
-        let u = l0 - (xs - self.w as f64 / 2.0);
+        let (l0, u) = self.offset(x);
         let mut acc = [0.0f64; MAX_W];
         for c in self.horner.iter().rev() {
             for j in 0..MAX_W {
@@ -218,7 +216,7 @@ impl Type1Plan {
             }
         }
         *out = acc;
-        (l0 as i64 + self.pad as i64) as usize
+        l0
     }
 
     /// Kernel weights of the point `x` evaluated from the kernel's formula (exp and sqrt).

@@ -8,9 +8,9 @@
 //! chunk spreads into its own grid and the grids are added in chunk order. Leaves the first
 //! pass cannot represent (failing the smoothness check at the chosen node count, kinked with
 //! the shorter live side, or outside the paper model's domain) are kept as terms, in chunk
-//! order, for
-//! the plan's full node count or the exact sum ([`crate::fast::fast_sum_fixed`]). The set of
-//! counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf test.
+//! order, for the plan's full node count or the exact sum ([`crate::fast::fast_sum_fixed`]).
+//! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
+//! test ([`crate::lobe::classify_candidates`]).
 
 use crate::error::{Error, Result};
 use crate::fast::{
