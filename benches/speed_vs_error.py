@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
-import time
 from pathlib import Path
 
 import numpy as np
+from bench_canonical import warm_median  # the same warm-repeat median (benches/ is on sys.path)
 
 import batecho
 
@@ -37,16 +36,6 @@ def scene(n: int, seed: int = 7) -> batecho.Scene:
     return batecho.Scene(
         batecho.Leaves(centers, rng.normal(size=(n, 3)), rng.normal(0.02, 0.002, n))
     )
-
-
-def timed(fn, repeat: int):
-    out = fn()  # warm-up
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        ts.append(time.perf_counter() - t0)
-    return out, statistics.median(ts)
 
 
 def main() -> None:
@@ -64,8 +53,8 @@ def main() -> None:
     for n in sizes:
         sc = scene(n)
         t_build = sc.build_time_s
-        _, t_lobe = timed(lambda sc=sc: batecho.lobe_members(sc, sonar, pose), args.repeat)
-        exact, t_exact = timed(
+        _, t_lobe = warm_median(lambda sc=sc: batecho.lobe_members(sc, sonar, pose), args.repeat)
+        exact, t_exact = warm_median(
             lambda sc=sc: batecho.simulate(sc, sonar, pose, method="exact"),
             max(1, args.repeat if n < 1_000_000 else 1),
         )
@@ -80,7 +69,7 @@ def main() -> None:
             flush=True,
         )
         for tol in TOLS:
-            fast, t_fast = timed(
+            fast, t_fast = warm_median(
                 lambda sc=sc, tol=tol: batecho.simulate(sc, sonar, pose, method="fast", tol=tol),
                 args.repeat,
             )
