@@ -12,7 +12,9 @@
 //!
 //! `P` type-1 NUFFTs that share their points, so each leaf's kernel weights are computed once
 //! and reused for every channel. The error budget: the interpolation error of each leaf and the
-//! NUFFT error are each held to `tol / 5`. A leaf whose last Chebyshev coefficient says its
+//! NUFFT error are each held to `tol / 5`. (Below [`K_FACTOR_TOL`] the channels carry `k F`,
+//! which is smoother across the band, and the Lagrange rows divide by `k` per bin; the check
+//! on `k F`'s coefficients then bounds `F`'s error to within `k_max / k_min = 4/3` of that.) A leaf whose last Chebyshev coefficient says its
 //! interpolant may err more (physical-optics leaves with diffraction nulls in the band, a few
 //! others) is summed exactly instead.
 //!
@@ -58,6 +60,11 @@ const WORST_CHEB: [f64; 17] = [
     2.3e-10, 2.0e-11, 1.5e-12, 1.1e-13, 1.7e-14,
 ];
 
+/// Below this tolerance the channels carry `k F` instead of the leaf factor `F`: across the
+/// 60-80 kHz band `k F` needs fewer nodes for leaves of a few centimetres (at 1e-6 nearly all
+/// pass the check at five nodes, against 95% for `F`); at 1e-3 `F` needs one node fewer.
+pub const K_FACTOR_TOL: f64 = 1e-4;
+
 /// Number of Chebyshev nodes for a tolerance: the last coefficient of the worst leaf is at
 /// most `2 tol` (its interpolation error, about a tenth of that, stays below `tol / 5`).
 pub fn nodes_for_tol(tol: f64) -> usize {
@@ -75,12 +82,15 @@ pub struct FastPlan {
     pub(crate) nodes: NodeTables,
     /// `c_{P-1} = sum_q cheb_last[q] F_q`.
     cheb_last: Vec<f64>,
-    /// `l_q(t_m)`, row-major (M, P).
+    /// `l_q(t_m)`, row-major (M, P), divided by `k_m` where the channels carry `k F`.
     lagrange: Vec<f64>,
-    /// `l_q(t_m)` by node, row-major (P, M + LB), zero past the band: whole vectors of bins.
+    /// The same by node, row-major (P, M + LB), zero past the band: whole vectors of bins.
     lagrange_t: Vec<f64>,
     /// The nodes' band-bin positions.
     node_x: Vec<f64>,
+    /// What the node values are multiplied by: 1 where the channels carry `k F`, `1/k_q`
+    /// where they carry `F` itself (see [`K_FACTOR_TOL`]).
+    node_scale: Vec<f64>,
     pub nufft: Type1Plan,
     /// `m_c = M / 2`: output mode `k` is band bin `m = k + m_c`.
     m_c: usize,
@@ -124,6 +134,10 @@ impl FastPlan {
             .iter()
             .map(|&t| 2.0 / p as f64 * cheb(p - 1, t))
             .collect();
+        let times_k = tol < K_FACTOR_TOL;
+        let node_scale = (0..p)
+            .map(|q| if times_k { 1.0 } else { nodes.inv_k[q] })
+            .collect();
         let mut lagrange = Vec::with_capacity(m * p);
         for j in 0..m {
             let t = if m > 1 {
@@ -131,12 +145,18 @@ impl FastPlan {
             } else {
                 0.0
             };
+            // channels of `k F`: the Lagrange rows take the 1/k back, bin by bin
+            let inv_k = if times_k {
+                1.0 / sonar.tables.k[j]
+            } else {
+                1.0
+            };
             for &tq in &tn {
                 let mut l = 1.0 / p as f64;
                 for d in 1..p {
                     l += 2.0 / p as f64 * cheb(d, tq) * cheb(d, t);
                 }
-                lagrange.push(l);
+                lagrange.push(l * inv_k);
             }
         }
         let row = m + LB;
@@ -155,6 +175,7 @@ impl FastPlan {
             lagrange,
             lagrange_t,
             node_x,
+            node_scale,
             nufft,
             m_c: m / 2,
         })
@@ -239,7 +260,7 @@ fn po_node_values(
     for q in 0..p {
         let k = nt.k[q];
         let (l, psi) = leaf_model::physical_optics(k * t.radius, t.cos_beta, t.sin_beta);
-        let mut amp = t.amp * l / k;
+        let mut amp = t.amp * l * plan.node_scale[q];
         if !nt.atten.is_empty() {
             amp *= (-nt.atten[q] * t.range).exp();
         }
@@ -292,7 +313,7 @@ pub(crate) fn po_leaf(sonar: &Sonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [
     }
 }
 
-/// One task's share: spread grids (P channels, each a real then an imaginary plane), the terms
+/// One task's share: spread grids (P channels, each a run of complex values), the terms
 /// added bin by bin, and the leaves deferred to a later pass.
 struct Partial {
     grid: Vec<f64>,
@@ -306,43 +327,48 @@ struct Partial {
 /// overlapping dependent chains).
 pub(crate) const LB: usize = 16;
 
-/// Spread one leaf: its kernel weights (from the piecewise polynomials at offset `u`, lanes =
-/// taps, zero past the kernel's width) times the strengths `sr + j si` (one per channel) onto
-/// `WS` grid points of every channel from index `l0`. Channel `c` holds its real parts at
-/// `grid[2 c glen..]` and its imaginary parts at `grid[(2 c + 1) glen..]`, so the weights
-/// multiply whole vectors and every strength is a broadcast scalar.
+/// The kernel weights at offset `u` in [0, 1), each twice (`[w0, w0, w1, w1, ..]`, zero past
+/// the kernel's width), from the piecewise polynomials with duplicated coefficients.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn spread_fixed<const WS: usize>(
+fn kernel_weights2<const WS2: usize>(horner2: &[[f64; 2 * MAX_W]], u: f64) -> [f64; WS2] {
+    let mut acc = [0.0f64; WS2];
+    for c in horner2.iter().rev() {
+        for j in 0..WS2 {
+            acc[j] = acc[j].mul_add(u, c[j]);
+        }
+    }
+    acc
+}
+
+/// Add one leaf's weighted strengths to every channel. Channel `c` is a run of complex values
+/// (real, imaginary interleaved) at `grid[2 c glen..]`; the leaf adds `w_j (sr[c] + j si[c])`
+/// to its points `l0 + j`: one contiguous run of `WS2` values per channel.
+#[inline(always)]
+fn spread_channels<const WS2: usize>(
     grid: &mut [f64],
     glen: usize,
     p: usize,
-    horner: &[[f64; MAX_W]],
-    u: f64,
     l0: usize,
-    sr: &[f64; MAX_NODES],
-    si: &[f64; MAX_NODES],
+    w2: &[f64; WS2],
+    sr: impl Fn(usize) -> f64,
+    si: impl Fn(usize) -> f64,
 ) {
-    let mut wv = [0.0f64; WS];
-    for c in horner.iter().rev() {
-        for j in 0..WS {
-            wv[j] = wv[j].mul_add(u, c[j]);
-        }
-    }
     for c in 0..p {
-        let (a, b) = (2 * c * glen + l0, (2 * c + 1) * glen + l0);
-        let re: &mut [f64; WS] = (&mut grid[a..a + WS]).try_into().unwrap();
-        for j in 0..WS {
-            re[j] = wv[j].mul_add(sr[c], re[j]);
+        let (r, i) = (sr(c), si(c));
+        let mut s = [0.0; WS2];
+        for t in 0..WS2 {
+            s[t] = if t % 2 == 0 { r } else { i };
         }
-        let im: &mut [f64; WS] = (&mut grid[b..b + WS]).try_into().unwrap();
-        for j in 0..WS {
-            im[j] = wv[j].mul_add(si[c], im[j]);
+        let a = 2 * (c * glen + l0);
+        let run: &mut [f64; WS2] = (&mut grid[a..a + WS2]).try_into().unwrap();
+        for t in 0..WS2 {
+            run[t] = w2[t].mul_add(s[t], run[t]);
         }
     }
 }
 
-/// [`spread_fixed`] at the plan's kernel width rounded up to whole vectors of 8 taps.
+/// Spread one leaf at grid index `l0`, offset `u`: the strengths `sr + j si` (one per channel)
+/// times its kernel weights.
 #[inline(always)]
 fn spread_one(
     plan: &FastPlan,
@@ -352,10 +378,66 @@ fn spread_one(
     sr: &[f64; MAX_NODES],
     si: &[f64; MAX_NODES],
 ) {
-    let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
+    let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner2[..]);
+    let (r, i) = (|c: usize| sr[c], |c: usize| si[c]);
     match plan.nufft.w {
-        0..=8 => spread_fixed::<8>(grid, glen, p, h, u, l0, sr, si),
-        _ => spread_fixed::<16>(grid, glen, p, h, u, l0, sr, si),
+        0..=8 => spread_channels(grid, glen, p, l0, &kernel_weights2::<16>(h, u), r, i),
+        _ => spread_channels(grid, glen, p, l0, &kernel_weights2::<32>(h, u), r, i),
+    }
+}
+
+/// Spread a batch of leaves (lanes): each live lane's strengths `sr[c][i] + j si[c][i]` times
+/// its kernel weights at offset `u[i]`, from grid index `l0[i]`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn spread_lanes(
+    plan: &FastPlan,
+    grid: &mut [f64],
+    u: &[f64; LB],
+    l0: &[usize; LB],
+    sr: &[[f64; LB]; MAX_NODES],
+    si: &[[f64; LB]; MAX_NODES],
+    live: &[bool; LB],
+) {
+    match plan.nufft.w {
+        0..=8 => spread_lanes_ws::<16>(plan, grid, u, l0, sr, si, live),
+        _ => spread_lanes_ws::<32>(plan, grid, u, l0, sr, si, live),
+    }
+}
+
+/// [`spread_lanes`] with `WS2 / 2` taps: the weights of four lanes at a time first (four
+/// independent Horner chains), then their spreading.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn spread_lanes_ws<const WS2: usize>(
+    plan: &FastPlan,
+    grid: &mut [f64],
+    u: &[f64; LB],
+    l0: &[usize; LB],
+    sr: &[[f64; LB]; MAX_NODES],
+    si: &[[f64; LB]; MAX_NODES],
+    live: &[bool; LB],
+) {
+    let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
+    for i0 in (0..LB).step_by(4) {
+        let mut a = [[0.0f64; MAX_W]; 4];
+        let (u0, u1, u2, u3) = (u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]);
+        for c in h.iter().rev() {
+            for t in 0..WS2 / 2 {
+                a[0][t] = a[0][t].mul_add(u0, c[t]);
+                a[1][t] = a[1][t].mul_add(u1, c[t]);
+                a[2][t] = a[2][t].mul_add(u2, c[t]);
+                a[3][t] = a[3][t].mul_add(u3, c[t]);
+            }
+        }
+        for (k, w) in a.iter().enumerate() {
+            let i = i0 + k;
+            if live[i] {
+                let w2: [f64; WS2] = std::array::from_fn(|t| w[t / 2]);
+                let (r, im) = (|c: usize| sr[c][i], |c: usize| si[c][i]);
+                spread_channels(grid, glen, p, l0[i], &w2, r, im);
+            }
+        }
     }
 }
 
@@ -471,7 +553,8 @@ fn erf_at_nodes<const N: usize, const K: usize>(
 }
 
 /// Node values of the paper model's leaf factor for a batch of leaves (lanes = leaves):
-/// `F(t_q) = amp L exp(-j psi) / k [exp(-atten r)]` at each of the plan's nodes; `LEVEL`
+/// `F(t_q) = amp L exp(-j psi) / k [exp(-atten r)]` at each of the plan's nodes, times `k_q`
+/// below [`K_FACTOR_TOL`] (the plan's `node_scale`); `LEVEL`
 /// selects the series: 0 full (~1e-16), 1 short (~1e-12), 2 shortest (~1e-9).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -505,7 +588,7 @@ fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
         erf_at_nodes::<40, 16>(p, &zz)
     };
     for q in 0..p {
-        let (k, inv_k, kp) = (nt.k[q], nt.inv_k[q], nt.kp[q]);
+        let (k, kp, scale) = (nt.k[q], nt.kp[q], plan.node_scale[q]);
         for i in 0..LB {
             let c = k * a[i];
             let ac = (PAPER_A2 * c).mul_add(c, PAPER_A0);
@@ -530,7 +613,7 @@ fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
             };
             let hr = h0r.mul_add(ce, h0i * se);
             let hi = h0i.mul_add(ce, -h0r * se);
-            let mut am = amp[i] * l * inv_k;
+            let mut am = amp[i] * l * scale;
             if ATTEN {
                 let x = -nt.atten[q] * range[i];
                 am *= if LEVEL == 2 {
@@ -852,9 +935,16 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         l0f[i] = left.ceil();
         u[i] = l0f[i] - left;
     }
-    // Spread each lane.
-    let (mut sr, mut si) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
+    // Strengths (node values times the phase), lanes = leaves.
+    let (mut sr, mut si) = ([[0.0; LB]; MAX_NODES], [[0.0; LB]; MAX_NODES]);
+    for q in 0..p {
+        for i in 0..LB {
+            sr[q][i] = fr[q][i].mul_add(pr[i], -fi[q][i] * pi[i]);
+            si[q][i] = fr[q][i].mul_add(pi[i], fi[q][i] * pr[i]);
+        }
+    }
     let mut failed = [false; LB];
+    let mut live = [false; LB];
     for i in 0..n {
         if !ok[i] {
             failed[i] = true;
@@ -862,24 +952,21 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         }
         if kink[i] != usize::MAX {
             let mk = kink[i];
-            let cq = CyclesPerBin::new(range[i], sp.fs, sp.n_samples, sp.sound_speed);
-            let gr: [f64; MAX_NODES] = std::array::from_fn(|q| fr[q][i]);
-            let gi: [f64; MAX_NODES] = std::array::from_fn(|q| fi[q][i]);
             if m - mk <= mk {
                 // live side the shorter: summed exactly (callers route such leaves there)
                 failed[i] = true;
                 continue;
             }
+            let cq = CyclesPerBin::new(range[i], sp.fs, sp.n_samples, sp.sound_speed);
+            let gr: [f64; MAX_NODES] = std::array::from_fn(|q| fr[q][i]);
+            let gi: [f64; MAX_NODES] = std::array::from_fn(|q| fi[q][i]);
             let (dre, dim) = (&mut direct.re, &mut direct.im);
             add_interpolant(sonar, plan, &gr, &gi, &cq, (0, mk), -1.0, dre, dim);
         }
-        for q in 0..p {
-            sr[q] = fr[q][i] * pr[i] - fi[q][i] * pi[i];
-            si[q] = fr[q][i] * pi[i] + fi[q][i] * pr[i];
-        }
-        let l0 = (l0f[i] as i64 + plan.nufft.pad as i64) as usize;
-        spread_one(plan, grid, u[i], l0, &sr, &si);
+        live[i] = true;
     }
+    let l0: [usize; LB] = std::array::from_fn(|i| (l0f[i] as i64 + plan.nufft.pad as i64) as usize);
+    spread_lanes(plan, grid, &u, &l0, &sr, &si, &live);
     failed
 }
 
@@ -1044,11 +1131,9 @@ pub(crate) fn finish_grid(
     let modes: Vec<Vec<Complex64>> = grid
         .par_chunks(2 * glen)
         .map(|g| {
-            let (gr, gi) = g.split_at(glen);
-            let mut cg: Vec<Complex64> = gr
-                .iter()
-                .zip(gi)
-                .map(|(&r, &i)| Complex64::new(r, i))
+            let mut cg: Vec<Complex64> = g
+                .chunks_exact(2)
+                .map(|v| Complex64::new(v[0], v[1]))
                 .collect();
             let mut out = vec![Complex64::new(0.0, 0.0); m];
             plan.nufft.finish(&mut cg, &mut out);
