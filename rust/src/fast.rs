@@ -356,6 +356,7 @@ fn spread_channels<const WS2: usize>(
     for c in 0..p {
         let (r, i) = (sr(c), si(c));
         let mut s = [0.0; WS2];
+        #[allow(clippy::needless_range_loop)]
         for t in 0..WS2 {
             s[t] = if t % 2 == 0 { r } else { i };
         }
