@@ -11,6 +11,9 @@
 //! degree-[`POLY_DEG`] polynomial through the exact values at Chebyshev nodes (error about
 //! 1e-16 of the leaf's peak). Each leaf is checked: if the last Chebyshev coefficient of any
 //! block exceeds [`SMOOTH_TOL`] of the leaf's peak, the leaf falls back to pointwise evaluation.
+//! A kinked leaf (`cos(B(c) beta)` crosses zero in the band, `L = max(0, A cos(B beta))`): its
+//! blocks past the kink are skipped (`L = 0`), and the block holding the kink interpolates the
+//! smooth extension `g` (the cosine unclamped) and zeroes the bins where `B(c) beta >= pi/2`.
 //! Pointwise path: the model evaluated at every bin with polynomial elementary functions
 //! accurate to ~1e-16 ([`crate::vmath`]).
 //! Both are branch-free blocks of [`LANES`] bins, vectorised by the compiler and dispatched at
@@ -317,10 +320,11 @@ pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
 }
 
 /// The leaf factor `F = amp L exp(-j psi) / k [exp(-atten r)]` of the paper model on one block
-/// of lanes, from the per-bin tables `k`, `1/k`, `k^-0.9065`, `k^0.3523` (and `atten`).
+/// of lanes, from the per-bin tables `k`, `1/k`, `k^-0.9065`, `k^0.3523` (and `atten`); without
+/// `CLAMP`, its smooth extension `g` (`L = A cos(B beta)` unclamped: negative past the kink).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn paper_factor<const ATTEN: bool>(
+fn paper_factor<const ATTEN: bool, const CLAMP: bool>(
     lf: &PaperLeaf,
     k: &[f64; LANES],
     inv_k: &[f64; LANES],
@@ -358,7 +362,8 @@ fn paper_factor<const ATTEN: bool>(
         let c = k[i] * lf.a;
         let ac = (PAPER_A2 * c).mul_add(c, PAPER_A0);
         let bc = PAPER_B1.mul_add(kp[i] * lf.ap, PAPER_B0);
-        let l = (ac * cos_0_pi(bc * lf.beta)).max(0.0);
+        let l = ac * cos_0_pi(bc * lf.beta);
+        let l = if CLAMP { l.max(0.0) } else { l };
         let (se, ce) = sincos_unit(e[i]);
         let hr = h0r.mul_add(ce, h0i * se);
         let hi_ = h0i.mul_add(ce, -h0r * se);
@@ -504,14 +509,33 @@ fn paper_blocks<const ATTEN: bool>(
             anchor = true;
             continue;
         }
-        let poly = if block_smooth {
+        // The first bin where L > 0 (x falls with k; in a smooth block, the first).
+        let live = if block_smooth {
+            j_start
+        } else {
+            let (mut lo, mut hi) = (j_start, last);
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if x_at(mid) >= FRAC_PI_2 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            hi
+        };
+        // The block's interpolant; in a block holding the kink, that of the smooth extension g
+        // (its bins before `live` zeroed), when at least a quarter of the block is live (then
+        // the interpolant's error, a fraction of |g| over the block, stays within a few times
+        // that of the live part). Otherwise the live bins are evaluated pointwise.
+        let poly = if block_smooth || last + 1 - live >= POLY_BLOCK / 4 {
             let q0 = b * LANES;
             let atten = if ATTEN {
                 &nt.atten[q0..q0 + LANES]
             } else {
                 &[][..]
             };
-            paper_factor::<ATTEN>(
+            paper_factor::<ATTEN, false>(
                 lf,
                 lanes(&nt.k, q0),
                 lanes(&nt.inv_k, q0),
@@ -526,6 +550,11 @@ fn paper_blocks<const ATTEN: bool>(
             None
         };
         for j0 in (j_start..j_end).step_by(LANES) {
+            if j0 + LANES <= live {
+                // all zero: skip, and anchor the phase afresh at the next lanes
+                anchor = true;
+                continue;
+            }
             match &poly {
                 Some((cr, ci)) => {
                     let t = lanes(&tab.t, j0);
@@ -538,6 +567,11 @@ fn paper_blocks<const ATTEN: bool>(
                         fr[i] = r;
                         fi[i] = m;
                     }
+                    if j0 < live {
+                        for i in 0..live - j0 {
+                            (fr[i], fi[i]) = (0.0, 0.0);
+                        }
+                    }
                 }
                 None => {
                     let atten = if ATTEN {
@@ -545,7 +579,7 @@ fn paper_blocks<const ATTEN: bool>(
                     } else {
                         &[][..]
                     };
-                    paper_factor::<ATTEN>(
+                    paper_factor::<ATTEN, true>(
                         lf,
                         lanes(&tab.k, j0),
                         lanes(&tab.inv_k, j0),
@@ -671,6 +705,27 @@ mod tests {
 
     fn kink_free(s: &Sonar, t: &LeafTerm) -> bool {
         (PAPER_B1 * (s.tables.kp[0] * t.radius.powf(PAPER_BP)) + PAPER_B0) * t.beta < FRAC_PI_2
+    }
+
+    #[test]
+    fn kinked_leaves_match_libm_with_the_kink_anywhere_in_a_block() {
+        for atm in [None, Some(Atmosphere::default())] {
+            let s = sonar(atm, 0.5);
+            let tab = &s.tables;
+            for &radius in &[3e-3f64, 0.01, 0.025, 0.05] {
+                let ap = radius.powf(PAPER_BP);
+                for frac in [0.013, 0.1, 0.37, 0.5, 0.61, 0.83, 0.995] {
+                    // beta that puts B(c) beta = pi/2 just past band bin frac * M
+                    let j = (frac * tab.m as f64) as usize;
+                    let beta = FRAC_PI_2 / PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0) + 1e-12;
+                    let t = term(0.2 / 9.0, 3.0, beta, radius);
+                    assert_eq!(paper_regime(tab, &t), PaperRegime::Kinked);
+                    let (_, blocks, exact) = paths(&s, &t);
+                    let e = max_rel(&blocks, &exact);
+                    assert!(e < 3e-12, "radius {radius}, kink at {frac}: {e:e}");
+                }
+            }
+        }
     }
 
     #[test]
