@@ -47,8 +47,17 @@ const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
 
 /// Largest number of interpolation nodes.
 pub const MAX_NODES: usize = 16;
-/// Leaves per parallel task (each task spreads into its own grid; grids are added in order).
+/// The most leaves per parallel task (each task spreads into its own grid; grids are added in
+/// order).
 pub const FAST_CHUNK: usize = 65_536;
+/// Chunk lengths are whole multiples of this.
+const SUB_CHUNK: usize = 1024;
+
+/// Leaves per parallel task for `n` leaves: about 16 tasks of 4096 to [`FAST_CHUNK`] leaves (a
+/// function of `n` only, so that results do not depend on the thread count).
+pub fn chunk_len(n: usize) -> usize {
+    n.div_ceil(16).clamp(4096, FAST_CHUNK).div_ceil(SUB_CHUNK) * SUB_CHUNK
+}
 /// The tightest tolerance the fast path accepts (the interpolants' floor is ~2e-14).
 pub const MIN_TOL: f64 = 1e-13;
 
@@ -1092,12 +1101,14 @@ pub(crate) fn fast_sum_fixed(
             *g += v;
         }
     };
-    if terms.len() <= FAST_CHUNK {
+    let chunk = chunk_len(terms.len());
+    if terms.len() <= chunk {
         add(spread_chunk(sonar, plan, terms), terms.len());
     } else {
-        for batch in terms.chunks(FAST_CHUNK * 16) {
+        // (16 grids at a time at most: memory stays bounded for long records)
+        for batch in terms.chunks(chunk * 16) {
             let parts: Vec<(Partial, usize)> = batch
-                .par_chunks(FAST_CHUNK)
+                .par_chunks(chunk)
                 .map(|c| (spread_chunk(sonar, plan, c), c.len()))
                 .collect();
             parts.into_iter().for_each(|(p, len)| add(p, len));

@@ -14,8 +14,8 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, fast_sum_fixed, finish_grid, kinked_spreads, paper_batch, po_leaf, Direct,
-    FastPlan, ADAPT_MIN_LEAVES, LB,
+    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, kinked_spreads, paper_batch,
+    po_leaf, Direct, FastPlan, ADAPT_MIN_LEAVES, LB,
 };
 use crate::kernel::{paper_regime, PaperRegime};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
@@ -26,16 +26,8 @@ use crate::spectrum::{leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
-/// Chunk lengths are whole multiples of this.
-const SUB: usize = 1024;
 /// Candidates sampled to choose the node count.
 const SAMPLE: usize = 1024;
-
-/// Candidates per parallel chunk for `n` candidates: about 16 chunks, each of 4096 to 65536
-/// candidates (a function of `n` only).
-pub fn chunk_len(n: usize) -> usize {
-    n.div_ceil(16).clamp(4096, 65_536).div_ceil(SUB) * SUB
-}
 
 /// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
 /// every leaf in index order.
