@@ -410,16 +410,16 @@ fn spread_lanes(
     live: &[bool; LB],
 ) {
     match plan.nufft.w {
-        0..=8 => spread_lanes_ws::<16>(plan, grid, u, l0, sr, si, live),
-        _ => spread_lanes_ws::<32>(plan, grid, u, l0, sr, si, live),
+        0..=8 => spread_lanes_ws::<8, 16>(plan, grid, u, l0, sr, si, live),
+        _ => spread_lanes_ws::<16, 32>(plan, grid, u, l0, sr, si, live),
     }
 }
 
-/// [`spread_lanes`] with `WS2 / 2` taps: the weights of four lanes at a time first (four
-/// independent Horner chains), then their spreading.
+/// [`spread_lanes`] with `WS` taps (`WS2 = 2 WS` values per channel): the weights of four
+/// lanes at a time first (four independent Horner chains), then their spreading.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn spread_lanes_ws<const WS2: usize>(
+fn spread_lanes_ws<const WS: usize, const WS2: usize>(
     plan: &FastPlan,
     grid: &mut [f64],
     u: &[f64; LB],
@@ -430,14 +430,22 @@ fn spread_lanes_ws<const WS2: usize>(
 ) {
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     for i0 in (0..LB).step_by(4) {
-        let mut a = [[0.0f64; MAX_W]; 4];
+        // eight taps at a time: the shape the compiler keeps in vector registers
+        let mut a = [[0.0f64; WS]; 4];
         let (u0, u1, u2, u3) = (u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]);
-        for c in h.iter().rev() {
-            for t in 0..WS2 / 2 {
-                a[0][t] = a[0][t].mul_add(u0, c[t]);
-                a[1][t] = a[1][t].mul_add(u1, c[t]);
-                a[2][t] = a[2][t].mul_add(u2, c[t]);
-                a[3][t] = a[3][t].mul_add(u3, c[t]);
+        for t0 in (0..WS).step_by(8) {
+            let mut b = [[0.0f64; 8]; 4];
+            for c in h.iter().rev() {
+                let c: &[f64; 8] = c[t0..t0 + 8].try_into().unwrap();
+                for t in 0..8 {
+                    b[0][t] = b[0][t].mul_add(u0, c[t]);
+                    b[1][t] = b[1][t].mul_add(u1, c[t]);
+                    b[2][t] = b[2][t].mul_add(u2, c[t]);
+                    b[3][t] = b[3][t].mul_add(u3, c[t]);
+                }
+            }
+            for k in 0..4 {
+                a[k][t0..t0 + 8].copy_from_slice(&b[k]);
             }
         }
         for (k, w) in a.iter().enumerate() {
