@@ -14,8 +14,8 @@
 //! and reused for every channel. The error budget: the interpolation error of each leaf and the
 //! NUFFT error are each held to `tol / 5`. (Below [`K_FACTOR_TOL`] the channels carry `k F`,
 //! which is smoother across the band, and the Lagrange rows divide by `k` per bin; the check
-//! on `k F`'s coefficients then bounds `F`'s error to within `k_max / k_min = 4/3` of that.) A leaf whose last Chebyshev coefficient says its
-//! interpolant may err more (physical-optics leaves with diffraction nulls in the band, a few
+//! on `k F`'s coefficients then bounds `F`'s error to within `k_max / k_min = 4/3` of that.)
+//! A leaf whose last Chebyshev coefficient says its interpolant may err more (physical-optics leaves with diffraction nulls in the band, a few
 //! others) is summed exactly instead.
 //!
 //! Kinked paper-model leaves, where `cos(B(c) beta)` crosses zero inside the band so that the
@@ -25,7 +25,7 @@
 //! shorter, the exact sum over it is the cheaper.) See [`paper_batch`].
 
 use crate::error::{invalid, Result};
-use crate::kernel::{cis_neg, paper_regime, NodeTables, PaperRegime, LANES};
+use crate::kernel::{cis_neg, first_live_bin, paper_regime, NodeTables, PaperRegime, LANES};
 use crate::leaf_model;
 use crate::leaf_model::{
     PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1, PAPER_BETA_REF, PAPER_P0, PAPER_P1, PAPER_PSI0,
@@ -336,19 +336,6 @@ struct Partial {
 /// overlapping dependent chains).
 pub(crate) const LB: usize = 16;
 
-/// The kernel weights at offset `u` in [0, 1), each twice (`[w0, w0, w1, w1, ..]`, zero past
-/// the kernel's width), from the piecewise polynomials with duplicated coefficients.
-#[inline(always)]
-fn kernel_weights2<const WS2: usize>(horner2: &[[f64; 2 * MAX_W]], u: f64) -> [f64; WS2] {
-    let mut acc = [0.0f64; WS2];
-    for c in horner2.iter().rev() {
-        for j in 0..WS2 {
-            acc[j] = acc[j].mul_add(u, c[j]);
-        }
-    }
-    acc
-}
-
 /// Add one leaf's weighted strengths to every channel. Channel `c` is a run of complex values
 /// (real, imaginary interleaved) at `grid[2 c glen..]`; the leaf adds `w_j (sr[c] + j si[c])`
 /// to its points `l0 + j`: one contiguous run of `WS2` values per channel.
@@ -388,12 +375,43 @@ fn spread_one(
     sr: &[f64; MAX_NODES],
     si: &[f64; MAX_NODES],
 ) {
-    let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner2[..]);
+    let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     let (r, i) = (|c: usize| sr[c], |c: usize| si[c]);
     match plan.nufft.w {
-        0..=8 => spread_channels(grid, glen, p, l0, &kernel_weights2::<16>(h, u), r, i),
-        _ => spread_channels(grid, glen, p, l0, &kernel_weights2::<32>(h, u), r, i),
+        0..=8 => {
+            let w = &weights4::<8>(h, [u; 4])[0];
+            spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
+        }
+        _ => {
+            let w = &weights4::<16>(h, [u; 4])[0];
+            spread_channels::<32>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
+        }
     }
+}
+
+/// The kernel weights of four points at offsets `u` in [0, 1) (zero past the kernel's width):
+/// four independent Horner chains, eight taps at a time (the shape the compiler keeps in
+/// vector registers; a loop over all `WS` taps was scalarised at sixteen).
+#[inline(always)]
+fn weights4<const WS: usize>(h: &[[f64; MAX_W]], u: [f64; 4]) -> [[f64; WS]; 4] {
+    let mut a = [[0.0f64; WS]; 4];
+    let [u0, u1, u2, u3] = u;
+    for t0 in (0..WS).step_by(8) {
+        let mut b = [[0.0f64; 8]; 4];
+        for c in h.iter().rev() {
+            let c: &[f64; 8] = c[t0..t0 + 8].try_into().unwrap();
+            for t in 0..8 {
+                b[0][t] = b[0][t].mul_add(u0, c[t]);
+                b[1][t] = b[1][t].mul_add(u1, c[t]);
+                b[2][t] = b[2][t].mul_add(u2, c[t]);
+                b[3][t] = b[3][t].mul_add(u3, c[t]);
+            }
+        }
+        for k in 0..4 {
+            a[k][t0..t0 + 8].copy_from_slice(&b[k]);
+        }
+    }
+    a
 }
 
 /// Spread a batch of leaves (lanes): each live lane's strengths `sr[c][i] + j si[c][i]` times
@@ -430,24 +448,7 @@ fn spread_lanes_ws<const WS: usize, const WS2: usize>(
 ) {
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     for i0 in (0..LB).step_by(4) {
-        // eight taps at a time: the shape the compiler keeps in vector registers
-        let mut a = [[0.0f64; WS]; 4];
-        let (u0, u1, u2, u3) = (u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]);
-        for t0 in (0..WS).step_by(8) {
-            let mut b = [[0.0f64; 8]; 4];
-            for c in h.iter().rev() {
-                let c: &[f64; 8] = c[t0..t0 + 8].try_into().unwrap();
-                for t in 0..8 {
-                    b[0][t] = b[0][t].mul_add(u0, c[t]);
-                    b[1][t] = b[1][t].mul_add(u1, c[t]);
-                    b[2][t] = b[2][t].mul_add(u2, c[t]);
-                    b[3][t] = b[3][t].mul_add(u3, c[t]);
-                }
-            }
-            for k in 0..4 {
-                a[k][t0..t0 + 8].copy_from_slice(&b[k]);
-            }
-        }
+        let a = weights4::<WS>(h, [u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]]);
         for (k, w) in a.iter().enumerate() {
             let i = i0 + k;
             if live[i] {
@@ -755,25 +756,7 @@ pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafT
 /// `B(c) beta >= pi/2` (the cosine is negative and `L` clamps to 0). `B` falls with frequency,
 /// so the bins split into a zero side `0..m*` and a live side `m*..M`.
 fn kink_bin(sonar: &Sonar, ap: f64, beta: f64) -> usize {
-    let tab = &sonar.tables;
-    let x = |m: usize| PAPER_B1.mul_add(tab.kp[m] * ap, PAPER_B0) * beta;
-    // x(lo) >= pi/2 > x(hi) holds for a kinked leaf; clamp for safety
-    let (mut lo, mut hi) = (0usize, tab.m - 1);
-    if x(lo) < FRAC_PI_2 {
-        return 0;
-    }
-    if x(hi) >= FRAC_PI_2 {
-        return tab.m;
-    }
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if x(mid) >= FRAC_PI_2 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    hi
+    first_live_bin(&sonar.tables, ap, beta, 0, sonar.tables.m - 1)
 }
 
 /// Whether a kinked paper-model leaf goes through the NUFFT: only when its zero side is the

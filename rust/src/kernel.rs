@@ -293,6 +293,30 @@ impl PaperLeaf {
     }
 }
 
+/// The first bin in `lo..=hi` where the paper model's `L` is nonzero (`B(c) beta < pi/2`;
+/// `B` falls with k, so the dead bins come first), for `ap = radius^-0.9065`; `lo` when `L > 0`
+/// there already, `hi + 1` when `L = 0` throughout.
+pub(crate) fn first_live_bin(tab: &BandTables, ap: f64, beta: f64, lo: usize, hi: usize) -> usize {
+    let x = |j: usize| PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0) * beta;
+    if x(lo) < FRAC_PI_2 {
+        return lo;
+    }
+    if x(hi) >= FRAC_PI_2 {
+        return hi + 1;
+    }
+    // x(lo) >= pi/2 > x(hi)
+    let (mut lo, mut hi) = (lo, hi);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if x(mid) >= FRAC_PI_2 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
 /// Where `B(c) beta` (which decreases with k) lies over the band: `L = max(0, A cos(B beta))`
 /// is zero at every bin (`Zero`), analytic in k (`Smooth`, no zero crossing of the cosine), or
 /// kinked where the cosine crosses zero inside the band (`Kinked`).
@@ -513,16 +537,7 @@ fn paper_blocks<const ATTEN: bool>(
         let live = if block_smooth {
             j_start
         } else {
-            let (mut lo, mut hi) = (j_start, last);
-            while hi - lo > 1 {
-                let mid = (lo + hi) / 2;
-                if x_at(mid) >= FRAC_PI_2 {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            hi
+            first_live_bin(tab, lf.ap, lf.beta, j_start, last)
         };
         // The block's interpolant; in a block holding the kink, that of the smooth extension g
         // (its bins before `live` zeroed), when at least a quarter of the block is live (then

@@ -144,9 +144,6 @@ pub struct Type1Plan {
     /// Piecewise-polynomial kernel (as FINUFFT evaluates it): `weight_j(u) =
     /// sum_d horner[d][j] u^d` for the point's offset `u` in [0, 1) from its first grid point.
     pub horner: Vec<[f64; MAX_W]>,
-    /// The same with every coefficient twice (`[c0, c0, c1, c1, ..]`): weights for runs of
-    /// complex values stored as (real, imaginary) pairs.
-    pub horner2: Vec<[f64; 2 * MAX_W]>,
     fft: Arc<dyn Fft<f64>>,
 }
 
@@ -181,7 +178,6 @@ impl Type1Plan {
             })
             .collect();
         let fft = FftPlanner::<f64>::new().plan_fft_forward(nf);
-        let horner = kernel_polynomials(w, beta);
         Ok(Type1Plan {
             modes,
             nf,
@@ -189,11 +185,7 @@ impl Type1Plan {
             beta,
             pad: MAX_W,
             correction,
-            horner2: horner
-                .iter()
-                .map(|c| std::array::from_fn(|t| c[t / 2]))
-                .collect(),
-            horner,
+            horner: kernel_polynomials(w, beta),
             fft,
         })
     }
