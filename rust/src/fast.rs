@@ -478,13 +478,46 @@ fn paper_nodes<const ATTEN: bool>(
     a: &[f64; LB],
     ap: &[f64; LB],
     aq: &[f64; LB],
-) -> ([[f64; LB]; MAX_NODES], [[f64; LB]; MAX_NODES]) {
+    s: &mut BatchScratch,
+) {
     if plan.tol >= LOW_SERIES_TOL {
-        paper_nodes_p::<ATTEN, 2>(plan, amp, range, beta, a, ap, aq)
+        paper_nodes_p::<ATTEN, 2>(plan, amp, range, beta, a, ap, aq, s)
     } else if plan.tol >= SHORT_SERIES_TOL {
-        paper_nodes_p::<ATTEN, 1>(plan, amp, range, beta, a, ap, aq)
+        paper_nodes_p::<ATTEN, 1>(plan, amp, range, beta, a, ap, aq, s)
     } else {
-        paper_nodes_p::<ATTEN, 0>(plan, amp, range, beta, a, ap, aq)
+        paper_nodes_p::<ATTEN, 0>(plan, amp, range, beta, a, ap, aq, s)
+    }
+}
+
+/// Work arrays of the paper model's node values and strengths for one batch (lanes = leaves,
+/// rows = nodes), made once per task and reused by every batch: rows past the plan's node
+/// count are never read, so nothing is zeroed per batch (zeroing and returning these 2 KB
+/// arrays by value cost ~7% of a fast pulse).
+pub(crate) struct BatchScratch {
+    /// The erf's arguments, its Taylor coefficients and its values at the nodes.
+    zz: [[f64; LB]; MAX_NODES],
+    coef: [[f64; LB]; MAX_NODES],
+    ee: [[f64; LB]; MAX_NODES],
+    /// Node values of the leaf factor.
+    fr: [[f64; LB]; MAX_NODES],
+    fi: [[f64; LB]; MAX_NODES],
+    /// Strengths (node values times the phase).
+    sr: [[f64; LB]; MAX_NODES],
+    si: [[f64; LB]; MAX_NODES],
+}
+
+impl BatchScratch {
+    pub(crate) fn new() -> Box<BatchScratch> {
+        let z = [[0.0; LB]; MAX_NODES];
+        Box::new(BatchScratch {
+            zz: z,
+            coef: z,
+            ee: z,
+            fr: z,
+            fi: z,
+            sr: z,
+            si: z,
+        })
     }
 }
 
@@ -504,8 +537,9 @@ const ERF_TAYLOR_REACH: f64 = 0.055;
 fn erf_at_nodes<const N: usize, const K: usize>(
     p: usize,
     z: &[[f64; LB]; MAX_NODES],
-) -> [[f64; LB]; MAX_NODES] {
-    let mut out = [[0.0; LB]; MAX_NODES];
+    c: &mut [[f64; LB]; MAX_NODES],
+    out: &mut [[f64; LB]; MAX_NODES],
+) {
     // z is monotone in frequency: the first and last nodes bound each lane's range
     let mut zc = [0.0; LB];
     let mut fits = true;
@@ -527,11 +561,11 @@ fn erf_at_nodes<const N: usize, const K: usize>(
                 out[q0 + h].copy_from_slice(&e[h * LB..(h + 1) * LB]);
             }
         }
-        return out;
+        return;
     }
     let e0 = erf_cheb_lanes::<N, LB>(&zc);
     // c_(n+1) = E g_n / (n + 1), E = (2/sqrt(pi)) exp(-z_c^2)
-    let mut c = [[0.0; LB]; K];
+    const { assert!(K <= MAX_NODES) };
     let (mut g0, mut g1) = ([1.0f64; LB], [0.0f64; LB]);
     for i in 0..LB {
         let ex = if N >= 40 {
@@ -569,7 +603,6 @@ fn erf_at_nodes<const N: usize, const K: usize>(
             out[q][i] = acc.mul_add(d, e0[i]);
         }
     }
-    out
 }
 
 /// Node values of the paper model's leaf factor for a batch of leaves (lanes = leaves):
@@ -586,27 +619,33 @@ fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
     a: &[f64; LB],
     ap: &[f64; LB],
     aq: &[f64; LB],
-) -> ([[f64; LB]; MAX_NODES], [[f64; LB]; MAX_NODES]) {
+    s: &mut BatchScratch,
+) {
     let nt = &plan.nodes;
     let (h0r, h0i) = (PAPER_PSI0.cos(), -PAPER_PSI0.sin());
-    let mut fr = [[0.0; LB]; MAX_NODES];
-    let mut fi = [[0.0; LB]; MAX_NODES];
+    let BatchScratch {
+        zz,
+        coef,
+        ee,
+        fr,
+        fi,
+        ..
+    } = s;
     // The erf's arguments at every node: z_q = P(c_q) (1.57 - beta).
     let p = plan.p;
-    let mut zz = [[0.0; LB]; MAX_NODES];
     for (q, zq) in zz.iter_mut().enumerate().take(p) {
         let kq = nt.kq[q];
         for i in 0..LB {
             zq[i] = PAPER_P1.mul_add(kq * aq[i], PAPER_P0) * (PAPER_BETA_REF - beta[i]);
         }
     }
-    let ee = if LEVEL == 2 {
-        erf_at_nodes::<22, 8>(p, &zz)
+    if LEVEL == 2 {
+        erf_at_nodes::<22, 8>(p, zz, coef, ee)
     } else if LEVEL == 1 {
-        erf_at_nodes::<28, 11>(p, &zz)
+        erf_at_nodes::<28, 11>(p, zz, coef, ee)
     } else {
-        erf_at_nodes::<40, 14>(p, &zz)
-    };
+        erf_at_nodes::<40, 14>(p, zz, coef, ee)
+    }
     for q in 0..p {
         let (k, kp, scale) = (nt.k[q], nt.kp[q], plan.node_scale[q]);
         for i in 0..LB {
@@ -648,7 +687,6 @@ fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
             fi[q][i] = am * hi;
         }
     }
-    (fr, fi)
 }
 
 /// Lane arrays (amp, range, beta, radius, radius^-0.9065, radius^0.3523) of a batch of up to
@@ -712,13 +750,15 @@ pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafT
         }
     }
     let mut need: Vec<usize> = Vec::with_capacity(sample.len());
+    let mut s = BatchScratch::new();
     for batch in sample.chunks(LB) {
         let l = lanes_of(batch);
-        let (fr, fi) = if atten {
-            paper_nodes::<true>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5])
+        if atten {
+            paper_nodes::<true>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5], &mut s)
         } else {
-            paper_nodes::<false>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5])
-        };
+            paper_nodes::<false>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5], &mut s)
+        }
+        let (fr, fi) = (&s.fr, &s.fi);
         for i in 0..batch.len() {
             let peak = (0..p).fold(0.0f64, |m, q| m.max(fr[q][i].abs()).max(fi[q][i].abs()));
             // the last coefficient above 2 tol peak decides: P must reach one past it
@@ -878,13 +918,15 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
     batch: &[&LeafTerm],
     grid: &mut [f64],
     direct: &mut Direct,
+    s: &mut BatchScratch,
 ) -> [bool; LB] {
     let (p, w) = (plan.p, plan.nufft.w);
     let sp = &sonar.params;
     let n = batch.len();
     let m = sonar.n_bins();
     let [amp, range, beta, a, ap, aq] = lanes_of(batch);
-    let (fr, fi) = paper_nodes::<ATTEN>(plan, &amp, &range, &beta, &a, &ap, &aq);
+    paper_nodes::<ATTEN>(plan, &amp, &range, &beta, &a, &ap, &aq, s);
+    let BatchScratch { fr, fi, sr, si, .. } = s;
     // Smoothness check per lane: the last Chebyshev coefficient against the lane's peak.
     let mut ok = [true; LB];
     let (mut lr, mut li, mut peak) = ([0.0; LB], [0.0; LB], [0.0f64; LB]);
@@ -938,7 +980,6 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         u[i] = l0f[i] - left;
     }
     // Strengths (node values times the phase), lanes = leaves.
-    let (mut sr, mut si) = ([[0.0; LB]; MAX_NODES], [[0.0; LB]; MAX_NODES]);
     for q in 0..p {
         for i in 0..LB {
             sr[q][i] = fr[q][i].mul_add(pr[i], -fi[q][i] * pi[i]);
@@ -968,7 +1009,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         live[i] = true;
     }
     let l0: [usize; LB] = std::array::from_fn(|i| (l0f[i] as i64 + plan.nufft.pad as i64) as usize);
-    spread_lanes(plan, grid, &u, &l0, &sr, &si, &live);
+    spread_lanes(plan, grid, &u, &l0, sr, si, &live);
     failed
 }
 
@@ -986,24 +1027,26 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
             let mut batch: Vec<&LeafTerm> = Vec::with_capacity(LB);
             let mut ids: Vec<usize> = Vec::with_capacity(LB);
             let atten = !plan.nodes.atten.is_empty();
-            let flush = |batch: &mut Vec<&LeafTerm>, ids: &mut Vec<usize>, part: &mut Partial| {
-                if batch.is_empty() {
-                    return;
-                }
-                let (grid, sums) = (&mut part.grid, &mut part.direct);
-                let failed = if atten {
-                    paper_batch::<true>(sonar, plan, batch, grid, sums)
-                } else {
-                    paper_batch::<false>(sonar, plan, batch, grid, sums)
+            let mut s = BatchScratch::new();
+            let mut flush =
+                |batch: &mut Vec<&LeafTerm>, ids: &mut Vec<usize>, part: &mut Partial| {
+                    if batch.is_empty() {
+                        return;
+                    }
+                    let (grid, sums) = (&mut part.grid, &mut part.direct);
+                    let failed = if atten {
+                        paper_batch::<true>(sonar, plan, batch, grid, sums, &mut s)
+                    } else {
+                        paper_batch::<false>(sonar, plan, batch, grid, sums, &mut s)
+                    };
+                    part.deferred.extend(
+                        ids.iter()
+                            .zip(failed)
+                            .filter_map(|(&id, f)| f.then_some(id)),
+                    );
+                    batch.clear();
+                    ids.clear();
                 };
-                part.deferred.extend(
-                    ids.iter()
-                        .zip(failed)
-                        .filter_map(|(&id, f)| f.then_some(id)),
-                );
-                batch.clear();
-                ids.clear();
-            };
             for (idx, t) in terms.iter().enumerate() {
                 match paper_regime(&sonar.tables, t) {
                     PaperRegime::Zero => {}
@@ -1309,11 +1352,11 @@ mod tests {
                     let t = ((2 * q + 1) as f64 * PI / (2 * p) as f64).cos();
                     centres.map(|zc| zc + spread * (zc.abs() + 1.5) * t)
                 });
-                let got = [
-                    erf_at_nodes::<22, 8>(p, &z),
-                    erf_at_nodes::<28, 11>(p, &z),
-                    erf_at_nodes::<40, 14>(p, &z),
-                ];
+                let mut c = [[0.0; LB]; MAX_NODES];
+                let mut got = [[[0.0; LB]; MAX_NODES]; 3];
+                erf_at_nodes::<22, 8>(p, &z, &mut c, &mut got[0]);
+                erf_at_nodes::<28, 11>(p, &z, &mut c, &mut got[1]);
+                erf_at_nodes::<40, 14>(p, &z, &mut c, &mut got[2]);
                 for (lvl, g) in got.iter().enumerate() {
                     for q in 0..p {
                         for i in 0..LB {

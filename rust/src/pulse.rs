@@ -15,7 +15,7 @@
 use crate::error::{Error, Result};
 use crate::fast::{
     choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, kinked_spreads, paper_batch,
-    po_leaf, Direct, FastPlan, ADAPT_MIN_LEAVES, LB,
+    po_leaf, BatchScratch, Direct, FastPlan, ADAPT_MIN_LEAVES, LB,
 };
 use crate::kernel::{paper_regime, PaperRegime};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
@@ -65,16 +65,31 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
     let paper = sonar.params.leaf_model == LeafModel::Paper;
     let atten = !plan.nodes.atten.is_empty();
     let mut batch: Vec<LeafTerm> = Vec::with_capacity(LB);
-    let flush = |batch: &mut Vec<LeafTerm>, part: &mut Part| {
+    let mut s = BatchScratch::new();
+    let mut flush = |batch: &mut Vec<LeafTerm>, part: &mut Part| {
         let n = batch.len();
         if n == 0 {
             return;
         }
         let refs: [&LeafTerm; LB] = std::array::from_fn(|i| &batch[i.min(n - 1)]);
         let failed = if atten {
-            paper_batch::<true>(sonar, plan, &refs[..n], &mut part.grid, &mut part.direct)
+            paper_batch::<true>(
+                sonar,
+                plan,
+                &refs[..n],
+                &mut part.grid,
+                &mut part.direct,
+                &mut s,
+            )
         } else {
-            paper_batch::<false>(sonar, plan, &refs[..n], &mut part.grid, &mut part.direct)
+            paper_batch::<false>(
+                sonar,
+                plan,
+                &refs[..n],
+                &mut part.grid,
+                &mut part.direct,
+                &mut s,
+            )
         };
         for (t, f) in batch.iter().zip(failed) {
             if f {
