@@ -40,7 +40,7 @@ use crate::vmath::{cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, exp_nonpos_d, sin
 use multiversion::multiversion;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::PI;
 
 /// First positive zero of the Bessel function J1.
 const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
@@ -689,22 +689,121 @@ fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(
     }
 }
 
-/// Lane arrays (amp, range, beta, radius, radius^-0.9065, radius^0.3523) of a batch of up to
-/// `LB` leaves; missing lanes repeat the last leaf.
-#[inline(always)]
-fn lanes_of(batch: &[&LeafTerm]) -> [[f64; LB]; 6] {
-    let n = batch.len();
-    let mut out = [[0.0; LB]; 6];
-    for i in 0..LB {
-        let t = batch[i.min(n - 1)];
-        out[0][i] = t.amp;
-        out[1][i] = t.range;
-        out[2][i] = t.beta;
-        out[3][i] = t.radius;
-        out[4][i] = t.radius_pow_b;
-        out[5][i] = t.radius_pow_p;
+/// A batch of up to [`LB`] paper-model leaves as lanes (leaf fields side by side), with the
+/// first live bin of each kinked leaf ([`NOT_KINKED`] for smooth ones); [`PaperLanes::pad`]
+/// fills the missing lanes with the last leaf.
+#[derive(Clone, Copy)]
+pub(crate) struct PaperLanes {
+    pub(crate) n: usize,
+    pub(crate) amp: [f64; LB],
+    pub(crate) range: [f64; LB],
+    pub(crate) beta: [f64; LB],
+    pub(crate) cos_beta: [f64; LB],
+    pub(crate) sin_beta: [f64; LB],
+    /// Radius, `radius^-0.9065`, `radius^0.3523`.
+    pub(crate) a: [f64; LB],
+    pub(crate) ap: [f64; LB],
+    pub(crate) aq: [f64; LB],
+    pub(crate) kink: [usize; LB],
+}
+
+/// [`PaperLanes`]' kink entry of a smooth leaf.
+pub(crate) const NOT_KINKED: usize = usize::MAX;
+
+impl PaperLanes {
+    pub(crate) fn new() -> PaperLanes {
+        let z = [0.0; LB];
+        PaperLanes {
+            n: 0,
+            amp: z,
+            range: z,
+            beta: z,
+            cos_beta: z,
+            sin_beta: z,
+            a: z,
+            ap: z,
+            aq: z,
+            kink: [NOT_KINKED; LB],
+        }
     }
-    out
+
+    /// Lanes of up to `LB` terms (smooth or kinked, with their first live bins).
+    fn of(sonar: &Sonar, terms: &[&LeafTerm]) -> PaperLanes {
+        let mut l = PaperLanes::new();
+        for t in terms {
+            let kink = match paper_regime(&sonar.tables, t) {
+                PaperRegime::Kinked => kink_bin(sonar, t.radius_pow_b, t.beta),
+                _ => NOT_KINKED,
+            };
+            l.push(t, kink);
+        }
+        l.pad();
+        l
+    }
+
+    #[inline(always)]
+    pub(crate) fn push(&mut self, t: &LeafTerm, kink: usize) {
+        let i = self.n;
+        self.amp[i] = t.amp;
+        self.range[i] = t.range;
+        self.beta[i] = t.beta;
+        self.cos_beta[i] = t.cos_beta;
+        self.sin_beta[i] = t.sin_beta;
+        self.a[i] = t.radius;
+        self.ap[i] = t.radius_pow_b;
+        self.aq[i] = t.radius_pow_p;
+        self.kink[i] = kink;
+        self.n = i + 1;
+    }
+
+    /// Append lane `k` of `from`, with its first live bin.
+    #[inline(always)]
+    pub(crate) fn push_lane(&mut self, from: &PaperLanes, k: usize, kink: usize) {
+        let i = self.n;
+        self.amp[i] = from.amp[k];
+        self.range[i] = from.range[k];
+        self.beta[i] = from.beta[k];
+        self.cos_beta[i] = from.cos_beta[k];
+        self.sin_beta[i] = from.sin_beta[k];
+        self.a[i] = from.a[k];
+        self.ap[i] = from.ap[k];
+        self.aq[i] = from.aq[k];
+        self.kink[i] = kink;
+        self.n = i + 1;
+    }
+
+    /// Lane `i` as a term.
+    pub(crate) fn term(&self, i: usize) -> LeafTerm {
+        LeafTerm {
+            amp: self.amp[i],
+            range: self.range[i],
+            beta: self.beta[i],
+            cos_beta: self.cos_beta[i],
+            sin_beta: self.sin_beta[i],
+            radius: self.a[i],
+            radius_pow_b: self.ap[i],
+            radius_pow_p: self.aq[i],
+        }
+    }
+
+    /// Repeat the last leaf in the missing lanes (as smooth: they are computed, never spread).
+    pub(crate) fn pad(&mut self) {
+        let n = self.n;
+        if n == 0 {
+            return;
+        }
+        for i in n..LB {
+            self.amp[i] = self.amp[n - 1];
+            self.range[i] = self.range[n - 1];
+            self.beta[i] = self.beta[n - 1];
+            self.cos_beta[i] = self.cos_beta[n - 1];
+            self.sin_beta[i] = self.sin_beta[n - 1];
+            self.a[i] = self.a[n - 1];
+            self.ap[i] = self.ap[n - 1];
+            self.aq[i] = self.aq[n - 1];
+            self.kink[i] = NOT_KINKED;
+        }
+    }
 }
 
 /// Calls with fewer leaves than this use the node count of the worst leaf (`nodes_for_tol`);
@@ -752,11 +851,12 @@ pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafT
     let mut need: Vec<usize> = Vec::with_capacity(sample.len());
     let mut s = BatchScratch::new();
     for batch in sample.chunks(LB) {
-        let l = lanes_of(batch);
+        let l = PaperLanes::of(sonar, batch);
+        let args = (&l.amp, &l.range, &l.beta, &l.a, &l.ap, &l.aq);
         if atten {
-            paper_nodes::<true>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5], &mut s)
+            paper_nodes::<true>(plan, args.0, args.1, args.2, args.3, args.4, args.5, &mut s)
         } else {
-            paper_nodes::<false>(plan, &l[0], &l[1], &l[2], &l[3], &l[4], &l[5], &mut s)
+            paper_nodes::<false>(plan, args.0, args.1, args.2, args.3, args.4, args.5, &mut s)
         }
         let (fr, fi) = (&s.fr, &s.fi);
         for i in 0..batch.len() {
@@ -799,12 +899,34 @@ fn kink_bin(sonar: &Sonar, ap: f64, beta: f64) -> usize {
     first_live_bin(&sonar.tables, ap, beta, 0, sonar.tables.m - 1)
 }
 
-/// Whether a kinked paper-model leaf goes through the NUFFT: only when its zero side is the
-/// shorter (the interpolant is then subtracted on fewer bins than an exact sum would visit on
-/// the live side; otherwise the exact sum over the live side is the cheaper).
-pub(crate) fn kinked_spreads(sonar: &Sonar, t: &LeafTerm) -> bool {
-    let mk = kink_bin(sonar, t.radius_pow_b, t.beta);
-    mk < sonar.n_bins() - mk
+/// How a paper-model leaf enters a fast pass.
+pub(crate) enum PaperRoute {
+    /// `L = 0` at every bin.
+    Skip,
+    /// Into a batch, with its first live bin when kinked ([`NOT_KINKED`] otherwise).
+    Batch(usize),
+    /// To the later pass: outside the paper model's domain, or kinked with the shorter live
+    /// side (then the exact sum over the live side is cheaper than subtracting the
+    /// interpolant on the zero side).
+    Defer,
+}
+
+/// The route of a paper-model leaf of regime `regime` with `radius^-0.9065 = ap`.
+#[inline(always)]
+pub(crate) fn paper_route(sonar: &Sonar, regime: PaperRegime, ap: f64, beta: f64) -> PaperRoute {
+    match regime {
+        PaperRegime::Zero => PaperRoute::Skip,
+        PaperRegime::Smooth => PaperRoute::Batch(NOT_KINKED),
+        PaperRegime::Kinked => {
+            let mk = kink_bin(sonar, ap, beta);
+            if mk < sonar.n_bins() - mk {
+                PaperRoute::Batch(mk)
+            } else {
+                PaperRoute::Defer
+            }
+        }
+        PaperRegime::OutOfDomain => PaperRoute::Defer,
+    }
 }
 
 /// Add `sign g(m) exp(-2 pi j (k0 + m) q)` to `dre`, `dim` (unwindowed band bins, length at
@@ -907,7 +1029,7 @@ impl Direct {
 ///
 /// A kinked leaf's factor is `max(0, g)` with `g` smooth (the unclamped cosine), zero on the
 /// bins `0..m*` and `g` on `m*..M`. Callers send only kinked leaves whose zero side is the
-/// shorter ([`kinked_spreads`]): `g` is spread and its interpolant subtracted on the zero
+/// shorter ([`paper_route`]): `g` is spread and its interpolant subtracted on the zero
 /// side, fewer than `M / 2` bins. The error is that of the interpolant on the live side,
 /// checked against the peak there.
 #[inline(always)]
@@ -915,17 +1037,26 @@ impl Direct {
 pub(crate) fn paper_batch<const ATTEN: bool>(
     sonar: &Sonar,
     plan: &FastPlan,
-    batch: &[&LeafTerm],
+    lanes: &PaperLanes,
     grid: &mut [f64],
     direct: &mut Direct,
     s: &mut BatchScratch,
 ) -> [bool; LB] {
     let (p, w) = (plan.p, plan.nufft.w);
     let sp = &sonar.params;
-    let n = batch.len();
+    let n = lanes.n;
     let m = sonar.n_bins();
-    let [amp, range, beta, a, ap, aq] = lanes_of(batch);
-    paper_nodes::<ATTEN>(plan, &amp, &range, &beta, &a, &ap, &aq, s);
+    let PaperLanes {
+        amp,
+        range,
+        beta,
+        a,
+        ap,
+        aq,
+        kink,
+        ..
+    } = lanes;
+    paper_nodes::<ATTEN>(plan, amp, range, beta, a, ap, aq, s);
     let BatchScratch { fr, fi, sr, si, .. } = s;
     // Smoothness check per lane: the last Chebyshev coefficient against the lane's peak.
     let mut ok = [true; LB];
@@ -940,21 +1071,13 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
     for i in 0..LB {
         ok[i] = lr[i].abs().max(li[i].abs()) <= 2.0 * plan.tol * peak[i];
     }
-    // Kinked lanes (B(c) beta reaches pi/2 at the band's low end): the first live bin, and the
-    // check against the peak on the live side.
-    let kp0 = sonar.tables.kp[0];
-    let mut kink = [usize::MAX; LB];
-    let mut any_kink = false;
-    for i in 0..LB {
-        any_kink |= PAPER_B1.mul_add(kp0 * ap[i], PAPER_B0) * beta[i] >= FRAC_PI_2;
-    }
-    if any_kink {
+    // Kinked lanes (their first live bin given): the check against the peak on the live side.
+    if kink.iter().any(|&mk| mk != NOT_KINKED) {
         for i in 0..n {
-            if PAPER_B1.mul_add(kp0 * ap[i], PAPER_B0) * beta[i] < FRAC_PI_2 {
+            let mk = kink[i];
+            if mk == NOT_KINKED {
                 continue;
             }
-            let mk = kink_bin(sonar, ap[i], beta[i]);
-            kink[i] = mk;
             let live = (0..p)
                 .filter(|&q| plan.node_x[q] >= mk as f64)
                 .fold(0.0f64, |mx, q| mx.max(fr[q][i].abs()).max(fi[q][i].abs()));
@@ -993,7 +1116,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
             failed[i] = true;
             continue;
         }
-        if kink[i] != usize::MAX {
+        if kink[i] != NOT_KINKED {
             let mk = kink[i];
             if m - mk <= mk {
                 // live side the shorter: summed exactly (callers route such leaves there)
@@ -1023,45 +1146,45 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
     };
     match sonar.params.leaf_model {
         LeafModel::Paper => {
-            // Route by regime; smooth leaves go through the vector batches.
-            let mut batch: Vec<&LeafTerm> = Vec::with_capacity(LB);
-            let mut ids: Vec<usize> = Vec::with_capacity(LB);
+            // Route by regime; smooth and kinked leaves go through the vector batches.
+            let mut lanes = PaperLanes::new();
+            let mut ids = [0usize; LB];
             let atten = !plan.nodes.atten.is_empty();
             let mut s = BatchScratch::new();
-            let mut flush =
-                |batch: &mut Vec<&LeafTerm>, ids: &mut Vec<usize>, part: &mut Partial| {
-                    if batch.is_empty() {
-                        return;
-                    }
-                    let (grid, sums) = (&mut part.grid, &mut part.direct);
-                    let failed = if atten {
-                        paper_batch::<true>(sonar, plan, batch, grid, sums, &mut s)
-                    } else {
-                        paper_batch::<false>(sonar, plan, batch, grid, sums, &mut s)
-                    };
-                    part.deferred.extend(
-                        ids.iter()
-                            .zip(failed)
-                            .filter_map(|(&id, f)| f.then_some(id)),
-                    );
-                    batch.clear();
-                    ids.clear();
+            let mut flush = |lanes: &mut PaperLanes, ids: &[usize; LB], part: &mut Partial| {
+                if lanes.n == 0 {
+                    return;
+                }
+                lanes.pad();
+                let (grid, sums) = (&mut part.grid, &mut part.direct);
+                let failed = if atten {
+                    paper_batch::<true>(sonar, plan, lanes, grid, sums, &mut s)
+                } else {
+                    paper_batch::<false>(sonar, plan, lanes, grid, sums, &mut s)
                 };
+                part.deferred.extend(
+                    ids[..lanes.n]
+                        .iter()
+                        .zip(failed)
+                        .filter_map(|(&id, f)| f.then_some(id)),
+                );
+                lanes.n = 0;
+            };
             for (idx, t) in terms.iter().enumerate() {
-                match paper_regime(&sonar.tables, t) {
-                    PaperRegime::Zero => {}
-                    PaperRegime::Kinked if !kinked_spreads(sonar, t) => part.deferred.push(idx),
-                    PaperRegime::Smooth | PaperRegime::Kinked => {
-                        batch.push(t);
-                        ids.push(idx);
-                        if batch.len() == LB {
-                            flush(&mut batch, &mut ids, &mut part);
+                let regime = paper_regime(&sonar.tables, t);
+                match paper_route(sonar, regime, t.radius_pow_b, t.beta) {
+                    PaperRoute::Skip => {}
+                    PaperRoute::Defer => part.deferred.push(idx),
+                    PaperRoute::Batch(kink) => {
+                        ids[lanes.n] = idx;
+                        lanes.push(t, kink);
+                        if lanes.n == LB {
+                            flush(&mut lanes, &ids, &mut part);
                         }
                     }
-                    PaperRegime::OutOfDomain => part.deferred.push(idx),
                 }
             }
-            flush(&mut batch, &mut ids, &mut part);
+            flush(&mut lanes, &ids, &mut part);
         }
         LeafModel::PhysicalOptics => {
             for (idx, t) in terms.iter().enumerate() {
@@ -1311,7 +1434,10 @@ mod tests {
             let spread: Vec<LeafTerm> = t
                 .iter()
                 .copied()
-                .filter(|l| kinked_spreads(&s, l))
+                .filter(|l| {
+                    let route = paper_route(&s, PaperRegime::Kinked, l.radius_pow_b, l.beta);
+                    matches!(route, PaperRoute::Batch(_))
+                })
                 .collect();
             assert!(spread.len() >= 50, "{}", spread.len());
             for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
@@ -1379,7 +1505,9 @@ mod tests {
             let mk = kink_bin(&s, t.radius_pow_b, t.beta);
             assert!(mk > 0 && mk < s.n_bins());
             let x = |m: usize| PAPER_B1.mul_add(s.tables.kp[m] * t.radius_pow_b, PAPER_B0) * t.beta;
-            assert!(x(mk - 1) >= FRAC_PI_2 && x(mk) < FRAC_PI_2);
+            assert!(
+                x(mk - 1) >= std::f64::consts::FRAC_PI_2 && x(mk) < std::f64::consts::FRAC_PI_2
+            );
         }
     }
 

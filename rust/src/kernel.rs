@@ -330,8 +330,14 @@ pub(crate) enum PaperRegime {
 }
 
 pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
-    let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * t.radius_pow_b, PAPER_B0) * t.beta;
-    let x_hi = PAPER_B1.mul_add(tab.kp[0] * t.radius_pow_b, PAPER_B0) * t.beta;
+    paper_regime_of(tab, t.radius_pow_b, t.beta)
+}
+
+/// [`paper_regime`] of a leaf with `radius^-0.9065 = ap` at incidence `beta`.
+#[inline(always)]
+pub(crate) fn paper_regime_of(tab: &BandTables, ap: f64, beta: f64) -> PaperRegime {
+    let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * ap, PAPER_B0) * beta;
+    let x_hi = PAPER_B1.mul_add(tab.kp[0] * ap, PAPER_B0) * beta;
     if x_lo >= FRAC_PI_2 {
         PaperRegime::Zero
     } else if x_hi > PI {

@@ -14,10 +14,10 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, kinked_spreads, paper_batch,
-    po_leaf, BatchScratch, Direct, FastPlan, ADAPT_MIN_LEAVES, LB,
+    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, paper_batch, paper_route, po_leaf,
+    BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute, ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
-use crate::kernel::{paper_regime, PaperRegime};
+use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -62,70 +62,112 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         count: 0,
         too_close: None,
     };
-    let paper = sonar.params.leaf_model == LeafModel::Paper;
+    let sp = &sonar.params;
+    let paper = sp.leaf_model == LeafModel::Paper;
     let atten = !plan.nodes.atten.is_empty();
-    let mut batch: Vec<LeafTerm> = Vec::with_capacity(LB);
+    let mut lanes = PaperLanes::new();
     let mut s = BatchScratch::new();
-    let mut flush = |batch: &mut Vec<LeafTerm>, part: &mut Part| {
-        let n = batch.len();
-        if n == 0 {
+    let mut flush = |lanes: &mut PaperLanes, part: &mut Part| {
+        if lanes.n == 0 {
             return;
         }
-        let refs: [&LeafTerm; LB] = std::array::from_fn(|i| &batch[i.min(n - 1)]);
+        lanes.pad();
+        let (grid, direct) = (&mut part.grid, &mut part.direct);
         let failed = if atten {
-            paper_batch::<true>(
-                sonar,
-                plan,
-                &refs[..n],
-                &mut part.grid,
-                &mut part.direct,
-                &mut s,
-            )
+            paper_batch::<true>(sonar, plan, lanes, grid, direct, &mut s)
         } else {
-            paper_batch::<false>(
-                sonar,
-                plan,
-                &refs[..n],
-                &mut part.grid,
-                &mut part.direct,
-                &mut s,
-            )
+            paper_batch::<false>(sonar, plan, lanes, grid, direct, &mut s)
         };
-        for (t, f) in batch.iter().zip(failed) {
-            if f {
-                part.deferred.push(*t);
+        for (i, f) in failed.iter().enumerate().take(lanes.n) {
+            if *f {
+                part.deferred.push(lanes.term(i));
             }
         }
-        batch.clear();
+        lanes.n = 0;
     };
     for block in cands.chunks(CB) {
         let (v, range) = classify_candidates(scene, sonar, pose, block, &mut part.too_close);
-        for (k, &i) in block.iter().enumerate() {
-            let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) else {
-                continue;
-            };
-            part.count += 1;
-            let t = leaf_term(sonar, scene, &mb);
-            if !paper {
+        if !paper {
+            for (k, &i) in block.iter().enumerate() {
+                let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) else {
+                    continue;
+                };
+                part.count += 1;
+                let t = leaf_term(sonar, scene, &mb);
                 if !po_leaf(sonar, plan, &t, &mut part.grid) {
                     part.deferred.push(t);
                 }
-                continue;
             }
-            match paper_regime(&sonar.tables, &t) {
-                PaperRegime::Zero => {}
-                PaperRegime::Kinked if !kinked_spreads(sonar, &t) => part.deferred.push(t),
-                PaperRegime::Smooth | PaperRegime::Kinked => {
-                    batch.push(t);
-                    if batch.len() == LB {
-                        flush(&mut batch, &mut part);
+            continue;
+        }
+        // The block's lanes as paper-model terms (as `leaf_term` computes them) and their
+        // regimes; a block of smooth counting leaves is a batch as it stands, otherwise each
+        // counting leaf goes its route.
+        let nb = block.len();
+        let leaf = |k: usize| block[k.min(nb - 1)] as usize;
+        let mut bl = PaperLanes {
+            n: nb,
+            amp: std::array::from_fn(|k| {
+                let amp = sp.gain * v.gain[k];
+                if sp.spreading {
+                    amp / (range[k] * range[k])
+                } else {
+                    amp
+                }
+            }),
+            range,
+            beta: v.beta,
+            cos_beta: v.cos_beta,
+            sin_beta: v.sin_beta,
+            a: std::array::from_fn(|k| scene.radii[leaf(k)]),
+            ap: std::array::from_fn(|k| scene.radius_pow_b[leaf(k)]),
+            aq: std::array::from_fn(|k| scene.radius_pow_p[leaf(k)]),
+            kink: [NOT_KINKED; LB],
+        };
+        let regime: [PaperRegime; CB] =
+            std::array::from_fn(|k| paper_regime_of(&sonar.tables, bl.ap[k], bl.beta[k]));
+        if lanes.n == 0
+            && nb == CB
+            && (0..CB).all(|k| v.verdict[k] == 1 && regime[k] == PaperRegime::Smooth)
+        {
+            part.count += CB as u64;
+            flush(&mut bl, &mut part);
+            continue;
+        }
+        for (k, &i) in block.iter().enumerate() {
+            let route = match v.verdict[k] {
+                0 => continue,
+                1 => paper_route(sonar, regime[k], bl.ap[k], bl.beta[k]),
+                _ => {
+                    // on the detectable boundary: the libm decision
+                    let Some(mb) = classify_member(scene, sonar, pose, i) else {
+                        continue;
+                    };
+                    let t = leaf_term(sonar, scene, &mb);
+                    (bl.amp[k], bl.range[k], bl.beta[k]) = (t.amp, t.range, t.beta);
+                    (bl.cos_beta[k], bl.sin_beta[k]) = (t.cos_beta, t.sin_beta);
+                    paper_route(
+                        sonar,
+                        paper_regime(&sonar.tables, &t),
+                        t.radius_pow_b,
+                        t.beta,
+                    )
+                }
+            };
+            part.count += 1;
+            match route {
+                PaperRoute::Skip => {}
+                PaperRoute::Defer => part.deferred.push(bl.term(k)),
+                PaperRoute::Batch(kink) => {
+                    lanes.push_lane(&bl, k, kink);
+                    if lanes.n == LB {
+                        flush(&mut lanes, &mut part);
                     }
                 }
-                PaperRegime::OutOfDomain => part.deferred.push(t),
             }
         }
     }
-    flush(&mut batch, &mut part);
+    flush(&mut lanes, &mut part);
     part
 }
 
