@@ -14,8 +14,9 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, paper_batch, paper_route, po_leaf,
-    BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute, ADAPT_MIN_LEAVES, LB, NOT_KINKED,
+    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, give_grid, paper_batch, paper_route,
+    po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute, ADAPT_MIN_LEAVES,
+    LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
@@ -56,7 +57,7 @@ struct Part {
 fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands: &[u32]) -> Part {
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut part = Part {
-        grid: vec![0.0; 2 * p * glen],
+        grid: take_grid(2 * p * glen),
         direct: Direct::new(sonar.n_bins()),
         deferred: Vec::new(),
         count: 0,
@@ -231,11 +232,13 @@ pub fn fast_pulse(
         for (g, v) in acc.grid.iter_mut().zip(&part.grid) {
             *g += v;
         }
+        give_grid(part.grid);
         acc.direct.add(&part.direct);
         acc.deferred.extend_from_slice(&part.deferred);
         acc.count += part.count;
     }
     let (mut re, mut im) = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
+    give_grid(acc.grid);
     if !acc.deferred.is_empty() {
         let (r2, i2, _) = fast_sum_fixed(sonar, plan, &acc.deferred, false);
         for j in 0..m {
