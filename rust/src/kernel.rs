@@ -729,6 +729,35 @@ mod tests {
     }
 
     #[test]
+    fn first_live_bin_is_the_first_bin_the_predicate_calls_live() {
+        let s = sonar(None, 0.01);
+        let tab = &s.tables;
+        let x = |ap: f64, beta: f64, j: usize| PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0) * beta;
+        let mut seed = 11u64;
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut kinked, m) = (0, tab.m);
+        for _ in 0..20_000 {
+            let radius = 0.0005 * 600f64.powf(u());
+            let (ap, beta) = (radius.powf(PAPER_BP), FRAC_PI_2 * u().sqrt());
+            let (lo, hi) = if u() < 0.5 {
+                (0, m - 1)
+            } else {
+                let lo = (u() * m as f64) as usize;
+                (lo, lo + ((u() * (m - lo) as f64) as usize).min(m - 1 - lo))
+            };
+            let want = (lo..=hi).find(|&j| x(ap, beta, j) < FRAC_PI_2).unwrap_or(hi + 1);
+            assert_eq!(first_live_bin(tab, ap, beta, lo, hi), want, "{radius} {beta} {lo} {hi}");
+            kinked += usize::from(want > lo && want <= hi);
+        }
+        assert!(kinked > 200, "{kinked}");
+    }
+
+    #[test]
     fn kinked_leaves_match_libm_with_the_kink_anywhere_in_a_block() {
         for atm in [None, Some(Atmosphere::default())] {
             let s = sonar(atm, 0.5);
