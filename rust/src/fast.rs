@@ -1377,15 +1377,7 @@ mod tests {
         Sonar::new(p).unwrap()
     }
 
-    /// Uniform numbers in [0, 1) from an LCG seeded with `seed`.
-    fn uniforms(mut seed: u64) -> impl FnMut() -> f64 {
-        move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use crate::test_util::uniforms;
 
     /// Leaves of every kind: tiny to huge, normal to grazing incidence (kinked and zero-L
     /// leaves included), near and far.

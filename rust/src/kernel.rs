@@ -733,13 +733,7 @@ mod tests {
         let s = sonar(None, 0.01);
         let tab = &s.tables;
         let x = |ap: f64, beta: f64, j: usize| PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0) * beta;
-        let mut seed = 11u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = crate::test_util::uniforms(11);
         let (mut kinked, m) = (0, tab.m);
         for _ in 0..20_000 {
             let radius = 0.0005 * 600f64.powf(u());
@@ -750,8 +744,14 @@ mod tests {
                 let lo = (u() * m as f64) as usize;
                 (lo, lo + ((u() * (m - lo) as f64) as usize).min(m - 1 - lo))
             };
-            let want = (lo..=hi).find(|&j| x(ap, beta, j) < FRAC_PI_2).unwrap_or(hi + 1);
-            assert_eq!(first_live_bin(tab, ap, beta, lo, hi), want, "{radius} {beta} {lo} {hi}");
+            let want = (lo..=hi)
+                .find(|&j| x(ap, beta, j) < FRAC_PI_2)
+                .unwrap_or(hi + 1);
+            assert_eq!(
+                first_live_bin(tab, ap, beta, lo, hi),
+                want,
+                "{radius} {beta} {lo} {hi}"
+            );
             kinked += usize::from(want > lo && want <= hi);
         }
         assert!(kinked > 200, "{kinked}");

@@ -31,3 +31,17 @@ pub mod vmath;
 mod bindings;
 
 pub use error::{Error, Result};
+
+/// Helpers shared by the unit tests.
+#[cfg(test)]
+pub(crate) mod test_util {
+    /// Uniform numbers in [0, 1) from a 64-bit LCG seeded with `seed` (deterministic, no crates).
+    pub(crate) fn uniforms(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+}

@@ -313,13 +313,7 @@ mod tests {
 
     #[test]
     fn type1_matches_the_direct_sum_to_its_tolerance() {
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::test_util::uniforms(12345);
         let n = 300;
         let points: Vec<f64> = (0..n).map(|_| rnd()).collect();
         let strengths: Vec<Complex64> = (0..n)

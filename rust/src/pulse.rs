@@ -255,32 +255,18 @@ mod tests {
     use crate::sonar::{LobeRule, SonarParams};
     use crate::spectrum::band_spectrum;
 
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*seed >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     /// `n` leaves in a box in front of the origin: radii 0.5 mm - 5 cm, random normals.
     fn scene(n: usize, seed: u64) -> Scene {
-        let mut s = seed;
+        let mut u = crate::test_util::uniforms(seed);
         let mut c = Vec::with_capacity(n);
         let mut nv = Vec::with_capacity(n);
         let mut r = Vec::with_capacity(n);
         for _ in 0..n {
-            c.push([
-                0.3 + 9.0 * lcg(&mut s),
-                -3.0 + 6.0 * lcg(&mut s),
-                -3.0 + 6.0 * lcg(&mut s),
-            ]);
-            let (z, ph) = (
-                2.0 * lcg(&mut s) - 1.0,
-                2.0 * std::f64::consts::PI * lcg(&mut s),
-            );
+            c.push([0.3 + 9.0 * u(), -3.0 + 6.0 * u(), -3.0 + 6.0 * u()]);
+            let (z, ph) = (2.0 * u() - 1.0, 2.0 * std::f64::consts::PI * u());
             let q = (1.0 - z * z).sqrt();
             nv.push([q * ph.cos(), q * ph.sin(), z]);
-            r.push(0.0005 * 100f64.powf(lcg(&mut s)));
+            r.push(0.0005 * 100f64.powf(u()));
         }
         Scene::new(c, nv, r).unwrap()
     }

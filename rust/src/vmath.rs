@@ -333,13 +333,8 @@ mod tests {
     #[test]
     fn atan2_fast_matches_libm() {
         let mut worst: f64 = 0.0;
-        let mut seed = 3u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut uniform = crate::test_util::uniforms(3);
+        let mut u = || uniform() * 2.0 - 1.0;
         for _ in 0..400_000 {
             let (y, x) = (u() * 10f64.powf(3.0 * u()), u() * 10f64.powf(3.0 * u()));
             worst = worst.max((atan2_fast(y, x) - y.atan2(x)).abs());
