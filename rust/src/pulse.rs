@@ -23,7 +23,7 @@ use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, 
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
-use crate::spectrum::{leaf_term, LeafTerm};
+use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -108,14 +108,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         let leaf = |k: usize| block[k.min(nb - 1)] as usize;
         let mut bl = PaperLanes {
             n: nb,
-            amp: std::array::from_fn(|k| {
-                let amp = sp.gain * v.gain[k];
-                if sp.spreading {
-                    amp / (range[k] * range[k])
-                } else {
-                    amp
-                }
-            }),
+            amp: std::array::from_fn(|k| leaf_amp(sonar, v.gain[k], range[k])),
             range,
             beta: v.beta,
             cos_beta: v.cos_beta,

@@ -49,15 +49,24 @@ impl LeafTerm {
     }
 }
 
-pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
+/// A leaf's amplitude `g G / r^2` from its two-way gain `G` and range `r` (m); `g G` with
+/// spreading off.
+#[inline(always)]
+pub fn leaf_amp(sonar: &Sonar, gain: f64, range: f64) -> f64 {
     let p = &sonar.params;
-    let mut amp = p.gain * m.gain;
+    let amp = p.gain * gain;
     if p.spreading {
-        amp /= m.range * m.range;
+        amp / (range * range)
+    } else {
+        amp
     }
+}
+
+/// The term of a counting leaf: its amplitude, range, incidence and radius powers.
+pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
     let i = m.index as usize;
     LeafTerm {
-        amp,
+        amp: leaf_amp(sonar, m.gain, m.range),
         range: m.range,
         beta: m.beta,
         cos_beta: m.cos_beta,
