@@ -218,8 +218,11 @@ pub fn erf_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> [f64; L] 
 
 /// `atan2(y, x)` for finite arguments, branch-free (selects only): reduction to
 /// `t = min(|x|, |y|) / max(|x|, |y|)` in [0, 1], then to `|t'| <= tan(pi/8)` by
-/// `atan t = pi/4 + atan((t - 1)/(t + 1))` (one division either way), then the Taylor series of `atan(t')/t'` in `t'^2`
-/// to 21 terms (truncation < 4e-18). Absolute error about 4e-16; `atan2(0, 0) = 0`.
+/// `atan t = pi/4 + atan((t - 1)/(t + 1))` (one division either way), then `atan(t')/t'` as a
+/// degree-11 polynomial in `u = t'^2` on `[0, tan^2(pi/8)]`: its interpolant at 12 Chebyshev
+/// nodes, solved in 50-digit arithmetic (mpmath) and rounded (truncation ~2e-17, as accurate in
+/// f64 as the 21-term Taylor series it replaced, nine FMAs shorter). Absolute error about
+/// 4e-16; `atan2(0, 0) = 0`.
 #[inline(always)]
 pub fn atan2_fast(y: f64, x: f64) -> f64 {
     const TAN_PI_8: f64 = 0.414_213_562_373_095_03;
@@ -236,18 +239,22 @@ pub fn atan2_fast(y: f64, x: f64) -> f64 {
     };
     let tr = if td > 0.0 { tn / td } else { 0.0 };
     let u = tr * tr;
-    // atan(t)/t = sum_k (-1)^k u^k / (2k + 1), k = 0 .. 20
-    const C: [f64; 21] = {
-        let mut c = [0.0; 21];
-        let mut k = 0;
-        while k < 21 {
-            c[k] = if k % 2 == 0 { 1.0 } else { -1.0 } / (2 * k + 1) as f64;
-            k += 1;
-        }
-        c
-    };
-    let mut p = C[20];
-    for &c in C[..20].iter().rev() {
+    const C: [f64; 12] = [
+        1.0,
+        -0.333_333_333_333_331_2,
+        0.199_999_999_999_408_93,
+        -0.142_857_142_792_502_45,
+        0.111_111_107_449_196_58,
+        -0.090_908_968_090_640_27,
+        0.076_920_453_309_022_25,
+        -0.066_629_518_136_291_91,
+        0.058_468_782_973_308_72,
+        -0.050_351_024_566_015_52,
+        0.037_965_257_453_865_93,
+        -0.017_805_397_205_419_446,
+    ];
+    let mut p = C[11];
+    for &c in C[..11].iter().rev() {
         p = p.mul_add(u, c);
     }
     let mut a = tr.mul_add(p, if big { PIO4 } else { 0.0 });
