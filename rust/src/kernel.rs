@@ -304,17 +304,15 @@ pub(crate) fn first_live_bin(tab: &BandTables, ap: f64, beta: f64, lo: usize, hi
     if x(hi) >= FRAC_PI_2 {
         return hi + 1;
     }
-    // x(lo) >= pi/2 > x(hi)
-    let (mut lo, mut hi) = (lo, hi);
-    while hi - lo > 1 {
-        let mid = (lo + hi) / 2;
-        if x(mid) >= FRAC_PI_2 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
+    // Branch-free bisection (the outcome of each step is unpredictable): bin `base` is dead
+    // and bin `base + n` live throughout.
+    let (mut base, mut n) = (lo, hi - lo);
+    while n > 1 {
+        let half = n / 2;
+        base += half * usize::from(x(base + half) >= FRAC_PI_2);
+        n -= half;
     }
-    hi
+    base + 1
 }
 
 /// Where `B(c) beta` (which decreases with k) lies over the band: `L = max(0, A cos(B beta))`
