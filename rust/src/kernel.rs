@@ -41,6 +41,10 @@ pub const POLY_BLOCK: usize = 128;
 /// Degree of the interpolating polynomial per block.
 pub const POLY_DEG: usize = 6;
 const NODES: usize = POLY_DEG + 1;
+const _: () = assert!(
+    NODES < LANES,
+    "a block's nodes and its end fit one vector of lanes"
+);
 /// A block is interpolated only if its polynomial reproduces the exact factor at the block's
 /// end (where Chebyshev interpolation errs most) to this fraction of the block's peak |F|, and
 /// its last Chebyshev coefficient is below [`CHEB_TOL`] of that peak; otherwise the block is
@@ -70,8 +74,9 @@ pub struct BandTables {
     /// Smooth path: node tables, `LANES` entries per block: the `NODES` Chebyshev nodes, then
     /// the block's end (t = 1) for the error check.
     pub nodes: NodeTables,
-    /// Monomial coefficients from node values: `a_p = sum_i vinv[p][i] F_i`.
-    pub vinv: [[f64; NODES]; NODES],
+    /// Monomial coefficients from node values: `a_p = sum_i vinv[i][p] F_i` (by node, the
+    /// coefficients in lanes; the lane past the last coefficient is zero).
+    pub vinv: [[f64; LANES]; NODES],
     /// Last Chebyshev coefficient from node values: `c_D = sum_i cheb_last[i] F_i`.
     pub cheb_last: [f64; NODES],
 }
@@ -150,9 +155,9 @@ impl BandTables {
         }
         let tdi =
             |d: usize, i: usize| (d as f64 * ((2 * i + 1) as f64 * PI / (2 * NODES) as f64)).cos();
-        let mut vinv = [[0.0f64; NODES]; NODES];
-        for (p, row) in vinv.iter_mut().enumerate() {
-            for (i, v) in row.iter_mut().enumerate() {
+        let mut vinv = [[0.0f64; LANES]; NODES];
+        for (i, row) in vinv.iter_mut().enumerate() {
+            for (p, v) in row.iter_mut().enumerate().take(NODES) {
                 *v = (0..NODES)
                     .map(|d| {
                         (if d == 0 { 1.0 } else { 2.0 }) / NODES as f64
@@ -481,14 +486,17 @@ fn block_poly(
     if !(lr.abs().max(li.abs()) <= CHEB_TOL * peak) {
         return None;
     }
-    let mut cr = [0.0f64; NODES];
-    let mut ci = [0.0f64; NODES];
-    for p in 0..NODES {
-        for i in 0..NODES {
-            cr[p] = tab.vinv[p][i].mul_add(fr[i], cr[p]);
-            ci[p] = tab.vinv[p][i].mul_add(fi[i], ci[p]);
+    // (a whole vector of coefficients per node, the nodes in order)
+    let mut cr_l = [0.0f64; LANES];
+    let mut ci_l = [0.0f64; LANES];
+    for i in 0..NODES {
+        for p in 0..LANES {
+            cr_l[p] = tab.vinv[i][p].mul_add(fr[i], cr_l[p]);
+            ci_l[p] = tab.vinv[i][p].mul_add(fi[i], ci_l[p]);
         }
     }
+    let cr: [f64; NODES] = std::array::from_fn(|p| cr_l[p]);
+    let ci: [f64; NODES] = std::array::from_fn(|p| ci_l[p]);
     // At t = 1 the polynomial is the sum of its coefficients; compare with the exact end value.
     let (er, ei) = (
         cr.iter().sum::<f64>() - fr[NODES],
@@ -500,8 +508,14 @@ fn block_poly(
     Some((cr, ci))
 }
 
+/// Blocks whose node values and interpolants are computed together before their bins (their
+/// dependent chains overlap; one block at a time, each waited on the last).
+const STAGE: usize = 8;
+
 /// The paper model over all bins: per block of [`POLY_BLOCK`] bins, the interpolated factor
 /// (`smooth`) or the factor at every bin (pointwise), then the phase and the accumulation.
+/// Blocks go in stages of [`STAGE`]: first every block's node values, then its interpolant,
+/// then its bins.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn paper_blocks<const ATTEN: bool>(
     tab: &BandTables,
@@ -516,114 +530,136 @@ fn paper_blocks<const ATTEN: bool>(
     let (mut zr, mut zi) = ([0.0; LANES], [0.0; LANES]);
     let (mut fr, mut fi) = ([0.0; LANES], [0.0; LANES]);
     let mut anchor = false;
-    for b in 0..nt.n_blocks {
-        let j_start = b * POLY_BLOCK;
-        let j_end = if b + 1 == nt.n_blocks {
-            tab.m_pad
-        } else {
-            j_start + POLY_BLOCK
-        };
-        // For a kinked leaf, decide per block: x = B(c) beta decreases with k, so a block whose
-        // smallest x is >= pi/2 holds only L = 0, and one whose largest x is < pi/2 is smooth.
-        let last = j_end.min(tab.m) - 1;
-        let x_at = |j: usize| PAPER_B1.mul_add(tab.kp[j] * lf.ap, PAPER_B0) * lf.beta;
-        let (block_smooth, block_zero) = if smooth {
-            (true, false)
-        } else {
-            (x_at(j_start) < FRAC_PI_2, x_at(last) >= FRAC_PI_2)
-        };
-        if block_zero {
-            // L = 0 here: nothing to add; the phase is anchored afresh at the next block
-            anchor = true;
-            continue;
-        }
-        // The first bin where L > 0 (x falls with k; in a smooth block, the first).
-        let live = if block_smooth {
-            j_start
-        } else {
-            first_live_bin(tab, lf.ap, lf.beta, j_start, last)
-        };
-        // The block's interpolant; in a block holding the kink, that of the smooth extension g
-        // (its bins before `live` zeroed), when at least a quarter of the block is live (then
-        // the interpolant's error, a fraction of |g| over the block, stays within a few times
-        // that of the live part). Otherwise the live bins are evaluated pointwise.
-        let poly = if block_smooth || last + 1 - live >= POLY_BLOCK / 4 {
-            let q0 = b * LANES;
-            let atten = if ATTEN {
-                &nt.atten[q0..q0 + LANES]
+    let x_at = |j: usize| PAPER_B1.mul_add(tab.kp[j] * lf.ap, PAPER_B0) * lf.beta;
+    for b0 in (0..nt.n_blocks).step_by(STAGE) {
+        let nb = STAGE.min(nt.n_blocks - b0);
+        // Per block of the stage: its bins, its first live bin (None: L = 0 throughout), and
+        // whether it is interpolated (then its node values).
+        let mut span = [(0usize, 0usize, None::<usize>, false); STAGE];
+        let (mut nr, mut ni) = ([[0.0; LANES]; STAGE], [[0.0; LANES]; STAGE]);
+        for (s, sp) in span.iter_mut().enumerate().take(nb) {
+            let b = b0 + s;
+            let j_start = b * POLY_BLOCK;
+            let j_end = if b + 1 == nt.n_blocks {
+                tab.m_pad
             } else {
-                &[][..]
+                j_start + POLY_BLOCK
             };
-            paper_factor::<ATTEN, false>(
-                lf,
-                lanes(&nt.k, q0),
-                lanes(&nt.inv_k, q0),
-                lanes(&nt.kp, q0),
-                lanes(&nt.kq, q0),
-                atten,
-                &mut fr,
-                &mut fi,
-            );
-            block_poly(tab, &fr, &fi)
-        } else {
-            None
-        };
-        for j0 in (j_start..j_end).step_by(LANES) {
-            if j0 + LANES <= live {
-                // all zero: skip, and anchor the phase afresh at the next lanes
-                anchor = true;
+            // For a kinked leaf, decide per block: x = B(c) beta decreases with k, so a block
+            // whose smallest x is >= pi/2 holds only L = 0, and one whose largest x is < pi/2
+            // is smooth.
+            let last = j_end.min(tab.m) - 1;
+            let (block_smooth, block_zero) = if smooth {
+                (true, false)
+            } else {
+                (x_at(j_start) < FRAC_PI_2, x_at(last) >= FRAC_PI_2)
+            };
+            if block_zero {
+                *sp = (j_start, j_end, None, false);
                 continue;
             }
-            match &poly {
-                Some((cr, ci)) => {
-                    let t = lanes(&tab.t, j0);
-                    for i in 0..LANES {
-                        let (mut r, mut m) = (cr[POLY_DEG], ci[POLY_DEG]);
-                        for p in (0..POLY_DEG).rev() {
-                            r = r.mul_add(t[i], cr[p]);
-                            m = m.mul_add(t[i], ci[p]);
-                        }
-                        fr[i] = r;
-                        fi[i] = m;
-                    }
-                    if j0 < live {
-                        for i in 0..live - j0 {
-                            (fr[i], fi[i]) = (0.0, 0.0);
-                        }
-                    }
-                }
-                None => {
-                    let atten = if ATTEN {
-                        &tab.atten[j0..j0 + LANES]
-                    } else {
-                        &[][..]
-                    };
-                    paper_factor::<ATTEN, true>(
-                        lf,
-                        lanes(&tab.k, j0),
-                        lanes(&tab.inv_k, j0),
-                        lanes(&tab.kp, j0),
-                        lanes(&tab.kq, j0),
-                        atten,
-                        &mut fr,
-                        &mut fi,
-                    );
-                }
+            // The first bin where L > 0 (x falls with k; in a smooth block, the first).
+            let live = if block_smooth {
+                j_start
+            } else {
+                first_live_bin(tab, lf.ap, lf.beta, j_start, last)
+            };
+            // The block's interpolant; in a block holding the kink, that of the smooth
+            // extension g (its bins before `live` zeroed), when at least a quarter of the block
+            // is live (then the interpolant's error, a fraction of |g| over the block, stays
+            // within a few times that of the live part). Otherwise the live bins are evaluated
+            // pointwise.
+            let interpolate = block_smooth || last + 1 - live >= POLY_BLOCK / 4;
+            *sp = (j_start, j_end, Some(live), interpolate);
+            if interpolate {
+                let q0 = b * LANES;
+                let atten = if ATTEN {
+                    &nt.atten[q0..q0 + LANES]
+                } else {
+                    &[][..]
+                };
+                paper_factor::<ATTEN, false>(
+                    lf,
+                    lanes(&nt.k, q0),
+                    lanes(&nt.inv_k, q0),
+                    lanes(&nt.kp, q0),
+                    lanes(&nt.kq, q0),
+                    atten,
+                    &mut nr[s],
+                    &mut ni[s],
+                );
             }
-            accumulate_block(
-                std::mem::take(&mut anchor),
-                j0,
-                tab.k0,
-                q,
-                &pw,
-                w8,
-                &fr,
-                &fi,
-                &mut zr,
-                &mut zi,
-                lanes_mut(re, j0),
-                lanes_mut(im, j0),
-            );
+        }
+        let polys: [Option<([f64; NODES], [f64; NODES])>; STAGE] = std::array::from_fn(|s| {
+            if s < nb && span[s].3 {
+                block_poly(tab, &nr[s], &ni[s])
+            } else {
+                None
+            }
+        });
+        for (&(j_start, j_end, live, _), poly) in span.iter().zip(&polys).take(nb) {
+            let Some(live) = live else {
+                // L = 0 here: nothing to add; the phase is anchored afresh at the next block
+                anchor = true;
+                continue;
+            };
+            for j0 in (j_start..j_end).step_by(LANES) {
+                if j0 + LANES <= live {
+                    // all zero: skip, and anchor the phase afresh at the next lanes
+                    anchor = true;
+                    continue;
+                }
+                match poly {
+                    Some((cr, ci)) => {
+                        let t = lanes(&tab.t, j0);
+                        for i in 0..LANES {
+                            let (mut r, mut m) = (cr[POLY_DEG], ci[POLY_DEG]);
+                            for p in (0..POLY_DEG).rev() {
+                                r = r.mul_add(t[i], cr[p]);
+                                m = m.mul_add(t[i], ci[p]);
+                            }
+                            fr[i] = r;
+                            fi[i] = m;
+                        }
+                        if j0 < live {
+                            for i in 0..live - j0 {
+                                (fr[i], fi[i]) = (0.0, 0.0);
+                            }
+                        }
+                    }
+                    None => {
+                        let atten = if ATTEN {
+                            &tab.atten[j0..j0 + LANES]
+                        } else {
+                            &[][..]
+                        };
+                        paper_factor::<ATTEN, true>(
+                            lf,
+                            lanes(&tab.k, j0),
+                            lanes(&tab.inv_k, j0),
+                            lanes(&tab.kp, j0),
+                            lanes(&tab.kq, j0),
+                            atten,
+                            &mut fr,
+                            &mut fi,
+                        );
+                    }
+                }
+                accumulate_block(
+                    std::mem::take(&mut anchor),
+                    j0,
+                    tab.k0,
+                    q,
+                    &pw,
+                    w8,
+                    &fr,
+                    &fi,
+                    &mut zr,
+                    &mut zi,
+                    lanes_mut(re, j0),
+                    lanes_mut(im, j0),
+                );
+            }
         }
     }
 }
