@@ -409,6 +409,27 @@ fn paper_factor<const ATTEN: bool, const CLAMP: bool>(
     }
 }
 
+/// Per-position tables: `k`, `1/k`, `k^-0.9065`, `k^0.3523`, absorption (empty when off).
+type Tables<'a> = (&'a [f64], &'a [f64], &'a [f64], &'a [f64], &'a [f64]);
+
+/// [`paper_factor`] at the `LANES` table positions from `at`.
+#[inline(always)]
+fn factor_at<const ATTEN: bool, const CLAMP: bool>(
+    lf: &PaperLeaf,
+    (k, inv_k, kp, kq, atten): Tables,
+    at: usize,
+    fr: &mut [f64; LANES],
+    fi: &mut [f64; LANES],
+) {
+    let atten = if ATTEN {
+        &atten[at..at + LANES]
+    } else {
+        &[][..]
+    };
+    let (k, inv_k, kp, kq) = (lanes(k, at), lanes(inv_k, at), lanes(kp, at), lanes(kq, at));
+    paper_factor::<ATTEN, CLAMP>(lf, k, inv_k, kp, kq, atten, fr, fi);
+}
+
 /// Lane offsets `w1^i` and the block step `w1^LANES` of the round-trip phase.
 #[inline(always)]
 fn phase_steps(q: &CyclesPerBin) -> ([(f64, f64); LANES], (f64, f64)) {
@@ -573,21 +594,14 @@ fn paper_blocks<const ATTEN: bool>(
             *sp = (j_start, j_end, Some(live), interpolate);
             if interpolate {
                 let q0 = b * LANES;
-                let atten = if ATTEN {
-                    &nt.atten[q0..q0 + LANES]
-                } else {
-                    &[][..]
-                };
-                paper_factor::<ATTEN, false>(
-                    lf,
-                    lanes(&nt.k, q0),
-                    lanes(&nt.inv_k, q0),
-                    lanes(&nt.kp, q0),
-                    lanes(&nt.kq, q0),
-                    atten,
-                    &mut nr[s],
-                    &mut ni[s],
+                let t = (
+                    &nt.k[..],
+                    &nt.inv_k[..],
+                    &nt.kp[..],
+                    &nt.kq[..],
+                    &nt.atten[..],
                 );
+                factor_at::<ATTEN, false>(lf, t, q0, &mut nr[s], &mut ni[s]);
             }
         }
         let polys: [Option<([f64; NODES], [f64; NODES])>; STAGE] = std::array::from_fn(|s| {
@@ -628,21 +642,14 @@ fn paper_blocks<const ATTEN: bool>(
                         }
                     }
                     None => {
-                        let atten = if ATTEN {
-                            &tab.atten[j0..j0 + LANES]
-                        } else {
-                            &[][..]
-                        };
-                        paper_factor::<ATTEN, true>(
-                            lf,
-                            lanes(&tab.k, j0),
-                            lanes(&tab.inv_k, j0),
-                            lanes(&tab.kp, j0),
-                            lanes(&tab.kq, j0),
-                            atten,
-                            &mut fr,
-                            &mut fi,
+                        let t = (
+                            &tab.k[..],
+                            &tab.inv_k[..],
+                            &tab.kp[..],
+                            &tab.kq[..],
+                            &tab.atten[..],
                         );
+                        factor_at::<ATTEN, true>(lf, t, j0, &mut fr, &mut fi);
                     }
                 }
                 accumulate_block(
