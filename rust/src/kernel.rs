@@ -93,6 +93,10 @@ pub struct NodeTables {
 }
 
 impl BandTables {
+    fn tables(&self) -> Tables<'_> {
+        (&self.k, &self.inv_k, &self.kp, &self.kq, &self.atten)
+    }
+
     /// `wavenumber(x)` gives k at a (fractional) band-bin position x; `atten_at(f)` the
     /// absorption per metre at the corresponding frequency, when absorption is on.
     pub fn new(
@@ -253,6 +257,10 @@ pub fn add_leaf_scalar(
 }
 
 impl NodeTables {
+    fn tables(&self) -> Tables<'_> {
+        (&self.k, &self.inv_k, &self.kp, &self.kq, &self.atten)
+    }
+
     /// Tables at band-bin positions `x` (padded by the caller to a multiple of [`LANES`]).
     pub fn at(
         x: &[f64],
@@ -594,14 +602,7 @@ fn paper_blocks<const ATTEN: bool>(
             *sp = (j_start, j_end, Some(live), interpolate);
             if interpolate {
                 let q0 = b * LANES;
-                let t = (
-                    &nt.k[..],
-                    &nt.inv_k[..],
-                    &nt.kp[..],
-                    &nt.kq[..],
-                    &nt.atten[..],
-                );
-                factor_at::<ATTEN, false>(lf, t, q0, &mut nr[s], &mut ni[s]);
+                factor_at::<ATTEN, false>(lf, nt.tables(), q0, &mut nr[s], &mut ni[s]);
             }
         }
         let polys: [Option<([f64; NODES], [f64; NODES])>; STAGE] = std::array::from_fn(|s| {
@@ -642,14 +643,7 @@ fn paper_blocks<const ATTEN: bool>(
                         }
                     }
                     None => {
-                        let t = (
-                            &tab.k[..],
-                            &tab.inv_k[..],
-                            &tab.kp[..],
-                            &tab.kq[..],
-                            &tab.atten[..],
-                        );
-                        factor_at::<ATTEN, true>(lf, t, j0, &mut fr, &mut fi);
+                        factor_at::<ATTEN, true>(lf, tab.tables(), j0, &mut fr, &mut fi);
                     }
                 }
                 accumulate_block(
