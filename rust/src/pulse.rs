@@ -23,7 +23,7 @@ use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, 
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
-use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
+use crate::spectrum::{leaf_amp, leaf_term, sum_terms_unwindowed, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -47,7 +47,11 @@ pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> 
 struct Part {
     grid: Vec<f64>,
     direct: Direct,
+    /// Leaves that failed the smoothness check: a second fast pass at the full node count.
     deferred: Vec<LeafTerm>,
+    /// Leaves routed to the exact sum (kinked with the shorter live side, or outside the
+    /// paper model's domain).
+    exact: Vec<LeafTerm>,
     count: u64,
     too_close: Option<(usize, f64)>,
 }
@@ -60,6 +64,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         grid: take_grid(2 * p * glen),
         direct: Direct::new(sonar.n_bins()),
         deferred: Vec::new(),
+        exact: Vec::new(),
         count: 0,
         too_close: None,
     };
@@ -151,7 +156,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             part.count += 1;
             match route {
                 PaperRoute::Skip => {}
-                PaperRoute::Defer => part.deferred.push(bl.term(k)),
+                PaperRoute::Defer => part.exact.push(bl.term(k)),
                 PaperRoute::Batch(kink) => {
                     lanes.push_lane(&bl, k, kink);
                     if lanes.n == LB {
@@ -228,12 +233,28 @@ pub fn fast_pulse(
         give_grid(part.grid);
         acc.direct.add(&part.direct);
         acc.deferred.extend_from_slice(&part.deferred);
+        acc.exact.extend_from_slice(&part.exact);
         acc.count += part.count;
     }
-    let (mut re, mut im) = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
+    // The second fast pass runs beside the exact sums and the first pass's transforms (each
+    // is parallel inside, but at 1e5 leaves the second pass is a single task).
+    let (grid, deferred, exact) = (&acc.grid, &acc.deferred, &acc.exact);
+    let (second, (mut re, mut im)) = rayon::join(
+        || (!deferred.is_empty()).then(|| fast_sum_fixed(sonar, plan, deferred, false)),
+        || {
+            let (mut dre, mut dim) = (acc.direct.re, acc.direct.im);
+            if !exact.is_empty() {
+                let (xr, xi) = sum_terms_unwindowed(sonar, exact);
+                for j in 0..m {
+                    dre[j] += xr[j];
+                    dim[j] += xi[j];
+                }
+            }
+            finish_grid(sonar, first, grid, (dre, dim))
+        },
+    );
     give_grid(acc.grid);
-    if !acc.deferred.is_empty() {
-        let (r2, i2, _) = fast_sum_fixed(sonar, plan, &acc.deferred, false);
+    if let Some((r2, i2, _)) = second {
         for j in 0..m {
             re[j] += r2[j];
             im[j] += i2[j];
