@@ -1259,12 +1259,40 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
         if let Ok(smaller) = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p) {
             // First pass with fewer nodes; leaves it cannot represent get the full count.
             let (mut re, mut im, deferred) = fast_sum_fixed(sonar, &smaller, terms, true);
-            if !deferred.is_empty() {
-                let rest: Vec<LeafTerm> = deferred.iter().map(|&i| terms[i]).collect();
-                let (r2, i2, _) = fast_sum_fixed(sonar, plan, &rest, false);
+            // Leaves routed to the exact sum (kinked with the shorter live side, outside the
+            // model's domain) are summed beside the second pass, which is often one task.
+            let (mut retry, mut exact) = (Vec::new(), Vec::new());
+            for &i in &deferred {
+                let t = terms[i];
+                let to_exact = sonar.params.leaf_model == LeafModel::Paper
+                    && matches!(
+                        paper_route(
+                            sonar,
+                            paper_regime(&sonar.tables, &t),
+                            t.radius_pow_b,
+                            t.beta
+                        ),
+                        PaperRoute::Defer
+                    );
+                if to_exact { &mut exact } else { &mut retry }.push(t);
+            }
+            let (second, direct) = rayon::join(
+                || (!retry.is_empty()).then(|| fast_sum_fixed(sonar, plan, &retry, false)),
+                || {
+                    (!exact.is_empty())
+                        .then(|| crate::spectrum::sum_terms_unwindowed(sonar, &exact))
+                },
+            );
+            if let Some((r2, i2, _)) = second {
                 for j in 0..re.len() {
                     re[j] += r2[j];
                     im[j] += i2[j];
+                }
+            }
+            if let Some((xr, xi)) = direct {
+                for j in 0..re.len() {
+                    re[j] += xr[j] * sonar.window[j];
+                    im[j] += xi[j] * sonar.window[j];
                 }
             }
             return (re, im);
