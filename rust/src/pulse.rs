@@ -220,47 +220,52 @@ pub fn fast_pulse(
             });
         }
     }
-    let mut parts = parts.into_iter();
-    let head = parts.next();
     let m = sonar.n_bins();
-    let Some(mut acc) = head else {
+    if parts.is_empty() {
         return Ok((vec![0.0; m], vec![0.0; m], 0));
-    };
-    for part in parts {
-        for (g, v) in acc.grid.iter_mut().zip(&part.grid) {
-            *g += v;
-        }
-        give_grid(part.grid);
-        acc.direct.add(&part.direct);
-        acc.deferred.extend_from_slice(&part.deferred);
-        acc.exact.extend_from_slice(&part.exact);
-        acc.count += part.count;
     }
-    // The second fast pass runs beside the exact sums and the first pass's transforms (each
-    // is parallel inside, but at 1e5 leaves the second pass is a single task).
-    let (grid, deferred, exact) = (&acc.grid, &acc.deferred, &acc.exact);
+    // The leaves for the later passes (in chunk order), and the count.
+    let (mut deferred, mut exact, mut count) = (Vec::new(), Vec::new(), 0);
+    for part in &parts {
+        deferred.extend_from_slice(&part.deferred);
+        exact.extend_from_slice(&part.exact);
+        count += part.count;
+    }
+    // The second fast pass runs beside the sum of the chunks' grids, the exact sums and the
+    // first pass's transforms (each parallel inside, but at 1e5 leaves the second pass is a
+    // single task).
     let (second, (mut re, mut im)) = rayon::join(
-        || (!deferred.is_empty()).then(|| fast_sum_fixed(sonar, plan, deferred, false)),
+        || (!deferred.is_empty()).then(|| fast_sum_fixed(sonar, plan, &deferred, false)),
         || {
+            let mut parts = parts.into_iter();
+            let mut acc = parts.next().expect("one part at least");
+            for part in parts {
+                for (g, v) in acc.grid.iter_mut().zip(&part.grid) {
+                    *g += v;
+                }
+                give_grid(part.grid);
+                acc.direct.add(&part.direct);
+            }
             let (mut dre, mut dim) = (acc.direct.re, acc.direct.im);
             if !exact.is_empty() {
-                let (xr, xi) = sum_terms_unwindowed(sonar, exact);
+                let (xr, xi) = sum_terms_unwindowed(sonar, &exact);
                 for j in 0..m {
                     dre[j] += xr[j];
                     dim[j] += xi[j];
                 }
             }
-            finish_grid(sonar, first, grid, (dre, dim))
+            let out = finish_grid(sonar, first, &acc.grid, (dre, dim));
+            give_grid(acc.grid);
+            out
         },
     );
-    give_grid(acc.grid);
     if let Some((r2, i2, _)) = second {
         for j in 0..m {
             re[j] += r2[j];
             im[j] += i2[j];
         }
     }
-    Ok((re, im, acc.count))
+    Ok((re, im, count))
 }
 
 #[cfg(test)]
