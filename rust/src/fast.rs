@@ -367,6 +367,9 @@ struct Partial {
     direct: Direct,
     /// Leaves (indices into the chunk, ascending) the interpolation cannot represent to tol.
     deferred: Vec<usize>,
+    /// Leaves (indices into the chunk, ascending) routed to the exact sum: kinked with the
+    /// shorter live side, or outside the paper model's domain.
+    exact: Vec<usize>,
 }
 
 /// Leaves per vector batch of the fast path (16: two AVX-512 vectors per operation, for
@@ -1180,6 +1183,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
         grid: take_grid(2 * p * glen),
         direct: Direct::new(sonar.n_bins()),
         deferred: Vec::new(),
+        exact: Vec::new(),
     };
     match sonar.params.leaf_model {
         LeafModel::Paper => {
@@ -1211,7 +1215,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
                 let regime = paper_regime(&sonar.tables, t);
                 match paper_route(sonar, regime, t.radius_pow_b, t.beta) {
                     PaperRoute::Skip => {}
-                    PaperRoute::Defer => part.deferred.push(idx),
+                    PaperRoute::Defer => part.exact.push(idx),
                     PaperRoute::Batch(kink) => {
                         ids[lanes.n] = idx;
                         lanes.push(t, kink);
@@ -1237,6 +1241,16 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
     part
 }
 
+/// Leaves per task of a second pass over `n` deferred leaves: smaller tasks than
+/// [`chunk_len`] (a few thousand such leaves would otherwise be one or two uneven tasks), a
+/// function of `n` only.
+pub fn second_chunk_len(n: usize) -> usize {
+    n.div_ceil(4)
+        .clamp(SUB_CHUNK, FAST_CHUNK)
+        .div_ceil(SUB_CHUNK)
+        * SUB_CHUNK
+}
+
 /// The windowed band spectrum `(re, im)` of the members by the fast method.
 pub fn fast_band_spectrum(
     sonar: &Sonar,
@@ -1258,35 +1272,27 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
     if p < plan.p {
         if let Ok(smaller) = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p) {
             // First pass with fewer nodes; leaves it cannot represent get the full count.
-            let (mut re, mut im, deferred) = fast_sum_fixed(sonar, &smaller, terms, true);
-            // Leaves routed to the exact sum (kinked with the shorter live side, outside the
-            // model's domain) are summed beside the second pass, which is often one task.
-            let (mut retry, mut exact) = (Vec::new(), Vec::new());
-            for &i in &deferred {
-                let t = terms[i];
-                let to_exact = sonar.params.leaf_model == LeafModel::Paper
-                    && matches!(
-                        paper_route(
-                            sonar,
-                            paper_regime(&sonar.tables, &t),
-                            t.radius_pow_b,
-                            t.beta
-                        ),
-                        PaperRoute::Defer
-                    );
-                if to_exact { &mut exact } else { &mut retry }.push(t);
-            }
+            let first = fast_sum_fixed(sonar, &smaller, terms, true, chunk_len(terms.len()));
+            let (mut re, mut im) = (first.re, first.im);
+            // The exact sums run beside the second pass (a few thousand leaves at most, often
+            // one task).
+            let retry: Vec<LeafTerm> = first.deferred.iter().map(|&i| terms[i]).collect();
+            let exact: Vec<LeafTerm> = first.exact.iter().map(|&i| terms[i]).collect();
             let (second, direct) = rayon::join(
-                || (!retry.is_empty()).then(|| fast_sum_fixed(sonar, plan, &retry, false)),
+                || {
+                    (!retry.is_empty()).then(|| {
+                        fast_sum_fixed(sonar, plan, &retry, false, second_chunk_len(retry.len()))
+                    })
+                },
                 || {
                     (!exact.is_empty())
                         .then(|| crate::spectrum::sum_terms_unwindowed(sonar, &exact))
                 },
             );
-            if let Some((r2, i2, _)) = second {
+            if let Some(f) = second {
                 for j in 0..re.len() {
-                    re[j] += r2[j];
-                    im[j] += i2[j];
+                    re[j] += f.re[j];
+                    im[j] += f.im[j];
                 }
             }
             if let Some((xr, xi)) = direct {
@@ -1298,26 +1304,29 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
             return (re, im);
         }
     }
-    let (re, im, _) = fast_sum_fixed(sonar, plan, terms, false);
-    (re, im)
+    let f = fast_sum_fixed(sonar, plan, terms, false, chunk_len(terms.len()));
+    (f.re, f.im)
 }
 
-/// One fast pass at the plan's node count; with `defer`, the leaves it cannot represent are
-/// returned (indices into `terms`, ascending) instead of summed exactly.
+/// One fast pass at the plan's node count, `chunk` leaves per task; with `defer`, the leaves
+/// it cannot represent and those routed to the exact sum are returned ([`Fixed`]) instead of
+/// summed exactly.
 pub(crate) fn fast_sum_fixed(
     sonar: &Sonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
     defer: bool,
-) -> (Vec<f64>, Vec<f64>, Vec<usize>) {
+    chunk: usize,
+) -> Fixed {
     let m = sonar.n_bins();
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = take_grid(2 * p * glen);
     let mut sums = Direct::new(m);
-    let mut deferred: Vec<usize> = Vec::new();
+    let (mut deferred, mut exact): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
     let mut offset = 0usize;
     let mut add = |part: Partial, len: usize| {
         deferred.extend(part.deferred.iter().map(|&i| i + offset));
+        exact.extend(part.exact.iter().map(|&i| i + offset));
         sums.add(&part.direct);
         offset += len;
         for (g, v) in grid.iter_mut().zip(&part.grid) {
@@ -1325,7 +1334,6 @@ pub(crate) fn fast_sum_fixed(
         }
         give_grid(part.grid);
     };
-    let chunk = chunk_len(terms.len());
     if terms.len() <= chunk {
         add(spread_chunk(sonar, plan, terms), terms.len());
     } else {
@@ -1338,11 +1346,13 @@ pub(crate) fn fast_sum_fixed(
             parts.into_iter().for_each(|(p, len)| add(p, len));
         }
     }
-    // Leaves the interpolation cannot represent: returned for a second pass, or summed by the
-    // exact path (its fixed parallel chunks; the window is applied below, once, to both).
-    if !(defer || deferred.is_empty()) {
-        let rest: Vec<LeafTerm> = deferred.iter().map(|&i| terms[i]).collect();
-        deferred.clear();
+    // Leaves the interpolation cannot represent and those routed to the exact sum: returned
+    // for a later pass, or summed by the exact path (its fixed parallel chunks, in ascending
+    // order; the window is applied below, once, to both).
+    if !(defer || deferred.is_empty() && exact.is_empty()) {
+        let mut all: Vec<usize> = deferred.drain(..).chain(exact.drain(..)).collect();
+        all.sort_unstable();
+        let rest: Vec<LeafTerm> = all.iter().map(|&i| terms[i]).collect();
         let (r2, i2) = crate::spectrum::sum_terms_unwindowed(sonar, &rest);
         for j in 0..m {
             sums.re[j] += r2[j];
@@ -1351,7 +1361,23 @@ pub(crate) fn fast_sum_fixed(
     }
     let (re, im) = finish_grid(sonar, plan, &grid, (sums.re, sums.im));
     give_grid(grid);
-    (re, im, deferred)
+    Fixed {
+        re,
+        im,
+        deferred,
+        exact,
+    }
+}
+
+/// What one fast pass gives: the windowed band spectrum, and (with `defer`) the leaves left
+/// for later passes, as ascending indices into its terms.
+pub(crate) struct Fixed {
+    pub(crate) re: Vec<f64>,
+    pub(crate) im: Vec<f64>,
+    /// For a second fast pass at the full node count.
+    pub(crate) deferred: Vec<usize>,
+    /// For the exact sum.
+    pub(crate) exact: Vec<usize>,
 }
 
 /// The windowed band spectrum from spread grids (one NUFFT per channel, then the Lagrange
@@ -1501,7 +1527,8 @@ mod tests {
             assert!(spread.len() >= 50, "{}", spread.len());
             for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
                 let plan = FastPlan::new(&s, tol).unwrap();
-                let (re, im, deferred) = fast_sum_fixed(&s, &plan, &spread, true);
+                let f = fast_sum_fixed(&s, &plan, &spread, true, chunk_len(spread.len()));
+                let (re, im, deferred) = (f.re, f.im, f.deferred);
                 // (a few fail the check on their live side and are summed exactly)
                 assert!(
                     deferred.len() * 4 <= spread.len(),

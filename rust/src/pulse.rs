@@ -15,8 +15,8 @@
 use crate::error::{Error, Result};
 use crate::fast::{
     choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, give_grid, paper_batch, paper_route,
-    po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute, ADAPT_MIN_LEAVES,
-    LB, NOT_KINKED,
+    po_leaf, second_chunk_len, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
+    ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
@@ -235,7 +235,17 @@ pub fn fast_pulse(
     // first pass's transforms (each parallel inside, but at 1e5 leaves the second pass is a
     // single task).
     let (second, (mut re, mut im)) = rayon::join(
-        || (!deferred.is_empty()).then(|| fast_sum_fixed(sonar, plan, &deferred, false)),
+        || {
+            (!deferred.is_empty()).then(|| {
+                fast_sum_fixed(
+                    sonar,
+                    plan,
+                    &deferred,
+                    false,
+                    second_chunk_len(deferred.len()),
+                )
+            })
+        },
         || {
             let mut parts = parts.into_iter();
             let mut acc = parts.next().expect("one part at least");
@@ -259,10 +269,10 @@ pub fn fast_pulse(
             out
         },
     );
-    if let Some((r2, i2, _)) = second {
+    if let Some(f) = second {
         for j in 0..m {
-            re[j] += r2[j];
-            im[j] += i2[j];
+            re[j] += f.re[j];
+            im[j] += f.im[j];
         }
     }
     Ok((re, im, count))
