@@ -1551,6 +1551,39 @@ mod tests {
     }
 
     #[test]
+    fn a_deferring_pass_returns_exact_routed_leaves_apart_from_its_failures() {
+        let s = sonar(None, LeafModel::Paper);
+        let t = kinked_terms(&s, 400);
+        let routed = |l: &LeafTerm| {
+            let route = paper_route(&s, PaperRegime::Kinked, l.radius_pow_b, l.beta);
+            matches!(route, PaperRoute::Defer)
+        };
+        let want: Vec<usize> = (0..t.len()).filter(|&i| routed(&t[i])).collect();
+        assert!(want.len() >= 50, "{}", want.len());
+        let plan = FastPlan::new(&s, 1e-6).unwrap();
+        // several tasks, so that the indices cross task boundaries
+        let f = fast_sum_fixed(&s, &plan, &t, true, 64);
+        assert_eq!(f.exact, want);
+        assert!(f.deferred.iter().all(|i| !routed(&t[*i])));
+        // without deferring, nothing is returned and every leaf is counted once
+        let g = fast_sum_fixed(&s, &plan, &t, false, 64);
+        assert!(g.deferred.is_empty() && g.exact.is_empty());
+        assert!(rel_l2(&(g.re, g.im), &sum_terms(&s, &t)) <= 1e-6);
+    }
+
+    #[test]
+    fn second_pass_tasks_are_a_quarter_of_the_leaves_in_whole_sub_chunks() {
+        assert_eq!(second_chunk_len(1), SUB_CHUNK);
+        assert_eq!(second_chunk_len(4188), 2 * SUB_CHUNK);
+        assert_eq!(second_chunk_len(10_000_000), FAST_CHUNK);
+        for n in [1, 500, 4096, 4188, 20_000, 1 << 20] {
+            let c = second_chunk_len(n);
+            assert_eq!(c % SUB_CHUNK, 0);
+            assert!(n.div_ceil(c) <= 4 || c == FAST_CHUNK, "{n}: {c}");
+        }
+    }
+
+    #[test]
     fn erf_at_nodes_matches_libm_at_each_level() {
         // node ranges as the 60-80 kHz band gives them (half-width up to 0.051 (|z_c| + 1.5)),
         // and wider ones (the fallback)
