@@ -1244,11 +1244,18 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> Partial {
 /// Leaves per task of a second pass over `n` deferred leaves: smaller tasks than
 /// [`chunk_len`] (a few thousand such leaves would otherwise be one or two uneven tasks), a
 /// function of `n` only.
-pub fn second_chunk_len(n: usize) -> usize {
+pub(crate) fn second_chunk_len(n: usize) -> usize {
     n.div_ceil(4)
         .clamp(SUB_CHUNK, FAST_CHUNK)
         .div_ceil(SUB_CHUNK)
         * SUB_CHUNK
+}
+
+/// The second fast pass over deferred leaves: the plan's full node count, tasks of
+/// [`second_chunk_len`], the leaves it still cannot represent summed exactly (None for none).
+pub(crate) fn second_pass(sonar: &Sonar, plan: &FastPlan, leaves: &[LeafTerm]) -> Option<Fixed> {
+    (!leaves.is_empty())
+        .then(|| fast_sum_fixed(sonar, plan, leaves, false, second_chunk_len(leaves.len())))
 }
 
 /// The windowed band spectrum `(re, im)` of the members by the fast method.
@@ -1279,11 +1286,7 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
             let retry: Vec<LeafTerm> = first.deferred.iter().map(|&i| terms[i]).collect();
             let exact: Vec<LeafTerm> = first.exact.iter().map(|&i| terms[i]).collect();
             let (second, direct) = rayon::join(
-                || {
-                    (!retry.is_empty()).then(|| {
-                        fast_sum_fixed(sonar, plan, &retry, false, second_chunk_len(retry.len()))
-                    })
-                },
+                || second_pass(sonar, plan, &retry),
                 || {
                     (!exact.is_empty())
                         .then(|| crate::spectrum::sum_terms_unwindowed(sonar, &exact))

@@ -8,14 +8,15 @@
 //! chunk spreads into its own grid and the grids are added in chunk order. Leaves the first
 //! pass cannot represent (failing the smoothness check at the chosen node count, kinked with
 //! the shorter live side, or outside the paper model's domain) are kept as terms, in chunk
-//! order, for the plan's full node count or the exact sum ([`crate::fast::fast_sum_fixed`]).
+//! order: the failures for a second pass at the plan's full node count
+//! ([`crate::fast::second_pass`]), the others for the exact sum beside it.
 //! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
 //! test ([`crate::lobe::classify_candidates`]).
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grid, give_grid, paper_batch, paper_route,
-    po_leaf, second_chunk_len, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
+    choose_nodes_from, chunk_len, finish_grid, give_grid, paper_batch, paper_route, po_leaf,
+    second_pass, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
@@ -235,17 +236,7 @@ pub fn fast_pulse(
     // first pass's transforms (each parallel inside, but at 1e5 leaves the second pass is a
     // single task).
     let (second, (mut re, mut im)) = rayon::join(
-        || {
-            (!deferred.is_empty()).then(|| {
-                fast_sum_fixed(
-                    sonar,
-                    plan,
-                    &deferred,
-                    false,
-                    second_chunk_len(deferred.len()),
-                )
-            })
-        },
+        || second_pass(sonar, plan, &deferred),
         || {
             let mut parts = parts.into_iter();
             let mut acc = parts.next().expect("one part at least");
