@@ -1061,6 +1061,28 @@ impl Direct {
             *a += b;
         }
     }
+
+    /// Add the exact (unwindowed) sum of `terms`, if any.
+    pub(crate) fn add_exact(&mut self, sonar: &Sonar, terms: &[LeafTerm]) {
+        if terms.is_empty() {
+            return;
+        }
+        let (re, im) = crate::spectrum::sum_terms_unwindowed(sonar, terms);
+        for (a, b) in self.re.iter_mut().zip(&re) {
+            *a += b;
+        }
+        for (a, b) in self.im.iter_mut().zip(&im) {
+            *a += b;
+        }
+    }
+}
+
+/// Add a task's spread grid into `acc` and return it to the pool.
+pub(crate) fn add_grid(acc: &mut [f64], grid: Vec<f64>) {
+    for (a, v) in acc.iter_mut().zip(&grid) {
+        *a += v;
+    }
+    give_grid(grid);
 }
 
 /// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
@@ -1332,10 +1354,7 @@ pub(crate) fn fast_sum_fixed(
         exact.extend(part.exact.iter().map(|&i| i + offset));
         sums.add(&part.direct);
         offset += len;
-        for (g, v) in grid.iter_mut().zip(&part.grid) {
-            *g += v;
-        }
-        give_grid(part.grid);
+        add_grid(&mut grid, part.grid);
     };
     if terms.len() <= chunk {
         add(spread_chunk(sonar, plan, terms), terms.len());
@@ -1352,15 +1371,11 @@ pub(crate) fn fast_sum_fixed(
     // Leaves the interpolation cannot represent and those routed to the exact sum: returned
     // for a later pass, or summed by the exact path (its fixed parallel chunks, in ascending
     // order; the window is applied below, once, to both).
-    if !(defer || deferred.is_empty() && exact.is_empty()) {
+    if !defer {
         let mut all: Vec<usize> = deferred.drain(..).chain(exact.drain(..)).collect();
         all.sort_unstable();
         let rest: Vec<LeafTerm> = all.iter().map(|&i| terms[i]).collect();
-        let (r2, i2) = crate::spectrum::sum_terms_unwindowed(sonar, &rest);
-        for j in 0..m {
-            sums.re[j] += r2[j];
-            sums.im[j] += i2[j];
-        }
+        sums.add_exact(sonar, &rest);
     }
     let (re, im) = finish_grid(sonar, plan, &grid, (sums.re, sums.im));
     give_grid(grid);

@@ -15,8 +15,8 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, chunk_len, finish_grid, give_grid, paper_batch, paper_route, po_leaf,
-    second_pass, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
+    add_grid, choose_nodes_from, chunk_len, finish_grid, give_grid, paper_batch, paper_route,
+    po_leaf, second_pass, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
@@ -24,7 +24,7 @@ use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, 
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
-use crate::spectrum::{leaf_amp, leaf_term, sum_terms_unwindowed, LeafTerm};
+use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -241,21 +241,11 @@ pub fn fast_pulse(
             let mut parts = parts.into_iter();
             let mut acc = parts.next().expect("one part at least");
             for part in parts {
-                for (g, v) in acc.grid.iter_mut().zip(&part.grid) {
-                    *g += v;
-                }
-                give_grid(part.grid);
+                add_grid(&mut acc.grid, part.grid);
                 acc.direct.add(&part.direct);
             }
-            let (mut dre, mut dim) = (acc.direct.re, acc.direct.im);
-            if !exact.is_empty() {
-                let (xr, xi) = sum_terms_unwindowed(sonar, &exact);
-                for j in 0..m {
-                    dre[j] += xr[j];
-                    dim[j] += xi[j];
-                }
-            }
-            let out = finish_grid(sonar, first, &acc.grid, (dre, dim));
+            acc.direct.add_exact(sonar, &exact);
+            let out = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
             give_grid(acc.grid);
             out
         },
