@@ -25,6 +25,7 @@ pub mod scene;
 pub mod simulate;
 pub mod sonar;
 pub mod spectrum;
+pub mod subband;
 pub mod vmath;
 
 #[cfg(feature = "python")]

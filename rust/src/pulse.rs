@@ -6,17 +6,17 @@
 //! Determinism: the candidates come in the BVH's traversal order (sequential, so the same for
 //! any thread count) and are cut into chunks whose length depends only on their number; each
 //! chunk spreads into its own grid and the grids are added in chunk order. Leaves the first
-//! pass cannot represent (failing the smoothness check at the chosen node count, kinked with
-//! the shorter live side, or outside the paper model's domain) are kept as terms, in chunk
-//! order: the failures for a second pass at the plan's full node count
-//! ([`crate::fast::second_pass`]), the others for the exact sum beside it.
+//! pass cannot represent (failing the smoothness check at the chosen node count, or outside
+//! the paper model's domain) are kept as terms, in chunk order, for
+//! [`crate::fast::leftover_pass`]: kinked ones by sub-bands, the other failures by a second
+//! pass at the plan's full node count, the rest by the exact sum.
 //! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
 //! test ([`crate::lobe::classify_candidates`]).
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    add_grid, choose_nodes_from, chunk_len, finish_grid, give_grid, paper_batch, paper_route,
-    po_leaf, second_pass, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
+    add_grid, choose_nodes_from, chunk_len, finish_grid, give_grid, leftover_pass, paper_batch,
+    paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
@@ -48,10 +48,9 @@ pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> 
 struct Part {
     grid: Vec<f64>,
     direct: Direct,
-    /// Leaves that failed the smoothness check: a second fast pass at the full node count.
+    /// Leaves that failed the smoothness check (see [`crate::fast::leftover_pass`]).
     deferred: Vec<LeafTerm>,
-    /// Leaves routed to the exact sum (kinked with the shorter live side, or outside the
-    /// paper model's domain).
+    /// Leaves routed to the exact sum (outside the paper model's domain).
     exact: Vec<LeafTerm>,
     count: u64,
     too_close: Option<(usize, f64)>,
@@ -123,6 +122,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             ap: std::array::from_fn(|k| scene.radius_pow_b[leaf(k)]),
             aq: std::array::from_fn(|k| scene.radius_pow_p[leaf(k)]),
             kink: [NOT_KINKED; LB],
+            floor: [0.0; LB],
         };
         let regime: [PaperRegime; CB] =
             std::array::from_fn(|k| paper_regime_of(&sonar.tables, bl.ap[k], bl.beta[k]));
@@ -232,11 +232,10 @@ pub fn fast_pulse(
         exact.extend_from_slice(&part.exact);
         count += part.count;
     }
-    // The second fast pass runs beside the sum of the chunks' grids, the exact sums and the
-    // first pass's transforms (each parallel inside, but at 1e5 leaves the second pass is a
-    // single task).
-    let (second, (mut re, mut im)) = rayon::join(
-        || second_pass(sonar, plan, &deferred),
+    // The leaves the first pass left run beside the sum of the chunks' grids and the first
+    // pass's transforms (each parallel inside).
+    let (left, (mut re, mut im)) = rayon::join(
+        || leftover_pass(sonar, plan, &deferred, &exact),
         || {
             let mut parts = parts.into_iter();
             let mut acc = parts.next().expect("one part at least");
@@ -244,16 +243,15 @@ pub fn fast_pulse(
                 add_grid(&mut acc.grid, part.grid);
                 acc.direct.add(&part.direct);
             }
-            acc.direct.add_exact(sonar, &exact);
             let out = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
             give_grid(acc.grid);
             out
         },
     );
-    if let Some(f) = second {
+    if let Some((lr, li)) = left {
         for j in 0..m {
-            re[j] += f.re[j];
-            im[j] += f.im[j];
+            re[j] += lr[j];
+            im[j] += li[j];
         }
     }
     Ok((re, im, count))

@@ -143,6 +143,8 @@ pub struct Sonar {
     pub tables: BandTables,
     /// Fast-path plans by tolerance (built on first use).
     pub fast_plans: crate::fast::PlanCache,
+    /// The band's sub-bands for kinked leaves (built on first use; see [`crate::subband`]).
+    sub_bands: std::sync::OnceLock<Option<std::sync::Arc<crate::subband::SubBands>>>,
 }
 
 impl Sonar {
@@ -286,6 +288,7 @@ impl Sonar {
         );
         Ok(Sonar {
             fast_plans: Default::default(),
+            sub_bands: Default::default(),
             tables,
             params,
             k0,
@@ -308,6 +311,20 @@ impl Sonar {
     /// Absorption (nepers per metre of range, two-way) at band-bin position `x`; 0 when off.
     pub fn atten_at(&self, x: f64) -> f64 {
         band_atten_at(&self.params, self.k0, x)
+    }
+
+    /// The band's sub-bands for kinked leaves; None where the band is too narrow for them.
+    pub fn sub_bands(&self) -> Option<std::sync::Arc<crate::subband::SubBands>> {
+        self.sub_bands
+            .get_or_init(|| {
+                // (a sub-band of a valid sonar is valid; were one not, the full-band passes
+                // stand in)
+                crate::subband::SubBands::new(self)
+                    .ok()
+                    .flatten()
+                    .map(std::sync::Arc::new)
+            })
+            .clone()
     }
 
     /// Number of band bins M.

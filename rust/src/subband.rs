@@ -1,0 +1,330 @@
+//! Kinked paper-model leaves by sub-bands.
+//!
+//! A kinked leaf's factor `max(0, g)` is zero below its first live bin `m*` and the smooth
+//! `g` above it. Over the whole band `g` needs about twice the nodes of a typical leaf, and
+//! the corner needs either the exact sum over the live side or the interpolant subtracted
+//! over the zero side: about a microsecond per leaf, most of a 1e6-leaf pulse's second pass.
+//!
+//! Here the band is cut into sub-bands of about [`SUB_BAND_BINS`] bins, each a sonar of its own
+//! (the same bins, wavenumbers and tables; rectangular window). A sub-band wholly on the live
+//! side sees a smooth leaf over a band an eighth as wide, where a few nodes suffice; the
+//! sub-band holding `m*` sees a kinked leaf over ~150 bins and routes it as the full band would
+//! (interpolant subtracted, or the exact sum). Sub-bands wholly on the zero side never see it.
+//! Each sub-band is a fast sum with the same tolerance, so the error bound is the fast path's.
+//!
+//! Determinism: each sub-band takes its leaves in the caller's order, and the sub-bands are
+//! added into the band in order.
+
+use crate::error::Result;
+use crate::fast::{choose_nodes_from, chunk_len, fast_sum_fixed, kink_bin, K_FACTOR_TOL};
+use crate::sonar::{Sonar, Window};
+use crate::spectrum::LeafTerm;
+use multiversion::multiversion;
+use rayon::prelude::*;
+
+/// Bins per sub-band, about.
+pub const SUB_BAND_BINS: usize = 150;
+/// Bands that would give fewer sub-bands than this keep the full-band passes.
+pub const MIN_SUB_BANDS: usize = 4;
+/// Sub-band calls with fewer leaves than this use the sub-band's worst-case node count.
+const ADAPT_MIN: usize = 64;
+
+/// The sub-bands of a sonar's band: their first bins (within the band) and their sonars.
+#[derive(Clone, Debug)]
+pub struct SubBands {
+    pub bands: Vec<(usize, Sonar)>,
+}
+
+impl SubBands {
+    /// `None` where the band has fewer than `MIN_SUB_BANDS * SUB_BAND_BINS` bins.
+    pub fn new(sonar: &Sonar) -> Result<Option<SubBands>> {
+        let m = sonar.n_bins();
+        let s = (m + SUB_BAND_BINS / 2) / SUB_BAND_BINS;
+        if s < MIN_SUB_BANDS {
+            return Ok(None);
+        }
+        let df = sonar.params.fs / sonar.params.n_samples as f64;
+        let mut bands = Vec::with_capacity(s);
+        for b in 0..s {
+            let (lo, hi) = (b * m / s, (b + 1) * m / s - 1);
+            let mut p = sonar.params.clone();
+            // the same bins: k0 + lo .. k0 + hi (round(k df / df) = k)
+            p.f_lo = (sonar.k0 + lo) as f64 * df;
+            p.f_hi = (sonar.k0 + hi) as f64 * df;
+            p.window = Window::Rect;
+            let sub = Sonar::new(p)?;
+            debug_assert_eq!((sub.k0, sub.k1), (sonar.k0 + lo, sonar.k0 + hi));
+            bands.push((lo, sub));
+        }
+        Ok(Some(SubBands { bands }))
+    }
+
+    /// The node count for all sub-bands: chosen from a sample of the leaves smooth over the
+    /// last sub-band (all but those whose corner lies in it), the worst case for few leaves.
+    fn node_count(&self, tol: f64, terms: &[LeafTerm]) -> Result<usize> {
+        let (_, last) = self.bands.last().expect("sub-bands");
+        let full = last.fast_plans.get(last, tol)?;
+        if terms.len() < ADAPT_MIN {
+            return Ok(full.p);
+        }
+        let stride = (terms.len() / 256).max(1);
+        let sample: Vec<&LeafTerm> = terms.iter().step_by(stride).collect();
+        let p = choose_nodes_from(last, &full, &sample);
+        Ok(p)
+    }
+
+    /// The windowed band spectrum (of `sonar`, whose sub-bands these are) of kinked
+    /// paper-model leaves, to `tol`.
+    pub(crate) fn kinked_sum(
+        &self,
+        sonar: &Sonar,
+        tol: f64,
+        leaves: &[LeafTerm],
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
+        let m = sonar.n_bins();
+        // By first live bin (stable): a sub-band's leaves, those live somewhere in it, are
+        // then a prefix.
+        let (terms, floors, live_from) = by_first_live_bin(sonar, tol, leaves);
+        let p = self.node_count(tol, &terms)?;
+        let parts: Vec<Result<(Vec<f64>, Vec<f64>)>> = self
+            .bands
+            .par_iter()
+            .map(|(lo, sub)| {
+                let n = live_from.partition_point(|&mk| mk < lo + sub.n_bins());
+                band_sum(sub, tol, p, &terms[..n], &floors[..n])
+            })
+            .collect();
+        let (mut re, mut im) = (vec![0.0; m], vec![0.0; m]);
+        for ((lo, _), part) in self.bands.iter().zip(parts) {
+            let (pr, pi) = part?;
+            for j in 0..pr.len() {
+                re[lo + j] += sonar.window[lo + j] * pr[j];
+                im[lo + j] += sonar.window[lo + j] * pi[j];
+            }
+        }
+        Ok((re, im))
+    }
+}
+
+/// The leaves sorted by first live bin (stably), with their error floors
+/// ([`top_bin_magnitude`]) and first live bins.
+fn by_first_live_bin(
+    sonar: &Sonar,
+    tol: f64,
+    leaves: &[LeafTerm],
+) -> (Vec<LeafTerm>, Vec<f64>, Vec<usize>) {
+    let keys: Vec<(usize, f64)> = leaves
+        .par_chunks(1024)
+        .flat_map_iter(|c| kinks_and_floors(sonar, tol, c))
+        .collect();
+    let mut order: Vec<u32> = (0..leaves.len() as u32).collect();
+    order.sort_by_key(|&i| keys[i as usize].0);
+    let terms = order.iter().map(|&i| leaves[i as usize]).collect();
+    let floors = order.iter().map(|&i| keys[i as usize].1).collect();
+    let live_from = order.iter().map(|&i| keys[i as usize].0).collect();
+    (terms, floors, live_from)
+}
+
+/// First live bin and error floor of each leaf.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn kinks_and_floors(sonar: &Sonar, tol: f64, leaves: &[LeafTerm]) -> Vec<(usize, f64)> {
+    leaves
+        .iter()
+        .map(|t| {
+            (
+                kink_bin(sonar, t.radius_pow_b, t.beta),
+                top_bin_magnitude(sonar, tol, t),
+            )
+        })
+        .collect()
+}
+
+/// One sub-band's fast sum at `p` nodes, the leaves that fail the check summed exactly (over
+/// this sub-band only).
+fn band_sum(
+    sub: &Sonar,
+    tol: f64,
+    p: usize,
+    terms: &[LeafTerm],
+    floors: &[f64],
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    if terms.is_empty() {
+        let m = sub.n_bins();
+        return Ok((vec![0.0; m], vec![0.0; m]));
+    }
+    let plan = sub.fast_plans.get_with_nodes(sub, tol, p)?;
+    let f = fast_sum_fixed(sub, &plan, terms, floors, false, chunk_len(terms.len()));
+    Ok((f.re, f.im))
+}
+
+/// The magnitude of a kinked leaf's channel value at the band's last bin, where it is live: a
+/// lower bound of its peak over the band, the scale of its error budget (the full band's check
+/// measures the error against the peak on the live side; a sub-band near the corner sees only
+/// small values). Channels carry `k F` below [`K_FACTOR_TOL`], `F` above.
+#[inline(always)]
+fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
+    use crate::leaf_model::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};
+    let j = sonar.n_bins() - 1;
+    let k = sonar.wavenumbers[j];
+    let c = k * t.radius;
+    let b = PAPER_B1 * (sonar.tables.kp[j] * t.radius_pow_b) + PAPER_B0;
+    let l = ((PAPER_A2 * c * c + PAPER_A0) * (b * t.beta).cos()).max(0.0);
+    let atten = sonar
+        .atten_per_m
+        .get(j)
+        .map_or(1.0, |a| (-a * t.range).exp());
+    let f = t.amp * l * atten;
+    if tol < K_FACTOR_TOL {
+        f
+    } else {
+        f / k
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::absorption::Atmosphere;
+    use crate::kernel::{paper_regime, PaperRegime};
+    use crate::sonar::SonarParams;
+    use crate::spectrum::sum_terms;
+    use crate::test_util::uniforms;
+
+    fn sonar(atm: Option<Atmosphere>, window: Window) -> Sonar {
+        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        p.atmosphere = atm;
+        p.window = window;
+        Sonar::new(p).unwrap()
+    }
+
+    /// `n` kinked leaves: radii 3 mm - 10 cm, near and far.
+    fn kinked(s: &Sonar, n: usize, seed: u64) -> Vec<LeafTerm> {
+        let mut u = uniforms(seed);
+        std::iter::repeat_with(|| {
+            let radius = 0.003 * (100.0f64 / 3.0).powf(u());
+            let range = 0.1 + 10.0 * u();
+            let beta = u() * std::f64::consts::FRAC_PI_2;
+            LeafTerm::new(0.2 / (range * range), range, beta, radius)
+        })
+        .filter(|t| paper_regime(&s.tables, t) == PaperRegime::Kinked)
+        .take(n)
+        .collect()
+    }
+
+    fn rel_l2(a: &(Vec<f64>, Vec<f64>), b: &(Vec<f64>, Vec<f64>)) -> f64 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for j in 0..a.0.len() {
+            num += (a.0[j] - b.0[j]).powi(2) + (a.1[j] - b.1[j]).powi(2);
+            den += b.0[j].powi(2) + b.1[j].powi(2);
+        }
+        (num / den).sqrt()
+    }
+
+    #[test]
+    fn sub_bands_tile_the_band_with_its_own_bins() {
+        let s = sonar(None, Window::Hann);
+        let subs = SubBands::new(&s).unwrap().unwrap();
+        assert_eq!(subs.bands.len(), 8);
+        let mut next = 0;
+        for (lo, sub) in &subs.bands {
+            let n = sub.n_bins();
+            assert_eq!(*lo, next);
+            assert!(
+                (SUB_BAND_BINS - 10..=SUB_BAND_BINS + 10).contains(&n),
+                "{n}"
+            );
+            assert_eq!(sub.wavenumbers[..], s.wavenumbers[*lo..lo + n]);
+            assert_eq!(sub.tables.kp[..n], s.tables.kp[*lo..lo + n]);
+            assert!(sub.window.iter().all(|&w| w == 1.0));
+            next += n;
+        }
+        assert_eq!(next, s.n_bins());
+    }
+
+    #[test]
+    fn a_band_of_fewer_than_four_sub_bands_has_none() {
+        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        p.f_lo = 75e3; // 301 bins
+        assert!(SubBands::new(&Sonar::new(p).unwrap()).unwrap().is_none());
+    }
+
+    #[test]
+    fn kinked_sum_is_within_tol_of_the_exact_sum() {
+        for atm in [None, Some(Atmosphere::default())] {
+            let s = sonar(atm, Window::Hann);
+            let subs = s.sub_bands().unwrap();
+            let t = kinked(&s, 3000, 1);
+            let exact = sum_terms(&s, &t);
+            for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
+                let err = rel_l2(&subs.kinked_sum(&s, tol, &t).unwrap(), &exact);
+                assert!(err <= tol, "atm {} tol {tol:e}: {err:e}", atm.is_some());
+            }
+            // each leaf alone (its own peak sets the scale), corners near either band edge
+            for leaf in kinked(&s, 60, 2) {
+                let one = std::slice::from_ref(&leaf);
+                let err = rel_l2(
+                    &subs.kinked_sum(&s, 1e-9, one).unwrap(),
+                    &sum_terms(&s, one),
+                );
+                assert!(err <= 1e-9, "{leaf:?}: {err:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn kinked_sum_is_bit_identical_for_one_and_two_threads() {
+        let s = sonar(None, Window::Hann);
+        let subs = s.sub_bands().unwrap();
+        let t = kinked(&s, 20_000, 3);
+        let a = subs.kinked_sum(&s, 1e-6, &t).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let b = pool.install(|| subs.kinked_sum(&s, 1e-6, &t).unwrap());
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn the_error_floor_is_the_leafs_channel_value_at_the_last_bin() {
+        for atm in [None, Some(Atmosphere::default())] {
+            let s = sonar(atm, Window::Rect);
+            let j = s.n_bins() - 1;
+            for leaf in kinked(&s, 50, 4) {
+                let (re, im) = sum_terms(&s, std::slice::from_ref(&leaf));
+                let f = re[j].hypot(im[j]);
+                let lo = top_bin_magnitude(&s, 1e-3, &leaf);
+                assert!((lo - f).abs() <= 1e-12 * f, "{lo:e} {f:e}");
+                let hi = top_bin_magnitude(&s, 1e-6, &leaf);
+                let kf = s.wavenumbers[j] * f;
+                assert!((hi - kf).abs() <= 1e-12 * kf, "{hi:e} {kf:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn with_their_floors_few_kinked_leaves_fall_to_the_exact_sum_in_a_sub_band() {
+        let s = sonar(None, Window::Hann);
+        let subs = s.sub_bands().unwrap();
+        let (terms, floors, _) = by_first_live_bin(&s, 1e-6, &kinked(&s, 3000, 5));
+        let p = subs.node_count(1e-6, &terms).unwrap();
+        assert!(p <= 5, "{p}");
+        let n = terms.len();
+        for (b, (lo, sub)) in subs.bands.iter().enumerate() {
+            let plan = sub.fast_plans.get_with_nodes(sub, 1e-6, p).unwrap();
+            let f = fast_sum_fixed(sub, &plan, &terms, &floors, true, 1024);
+            // (in the last sub-band, leaves whose corner lies there have a small value at the
+            // top bin, the floor of their budget)
+            let most = if b + 1 == subs.bands.len() {
+                n / 10
+            } else {
+                n / 100
+            };
+            assert!(
+                f.deferred.len() <= most,
+                "at {lo}: {} of {n}",
+                f.deferred.len()
+            );
+        }
+    }
+}
