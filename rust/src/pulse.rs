@@ -28,8 +28,8 @@ use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
 
-/// Candidates sampled to choose the node count.
-const SAMPLE: usize = 1024;
+/// Candidates sampled to choose the node count (it uses at most 256 smooth members).
+const SAMPLE: usize = 512;
 
 /// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
 /// every leaf in index order.
@@ -171,6 +171,23 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
     part
 }
 
+/// The terms of the counting leaves among `cands` (the lobe test of [`pulse_chunk`], block by
+/// block).
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn sample_terms(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &[u32]) -> Vec<LeafTerm> {
+    let mut out = Vec::with_capacity(cands.len());
+    let mut too_close = None; // (reported by the pass itself)
+    for block in cands.chunks(CB) {
+        let (v, range) = classify_candidates(scene, sonar, pose, block, &mut too_close);
+        for (k, &i) in block.iter().enumerate() {
+            if let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) {
+                out.push(leaf_term(sonar, scene, &mb));
+            }
+        }
+    }
+    out
+}
+
 /// The windowed band spectrum `(re, im)` of one pose by the fast method, and its number of
 /// counting leaves. `pose_index` only labels errors.
 pub fn fast_pulse(
@@ -186,11 +203,11 @@ pub fn fast_pulse(
     let first: &FastPlan =
         if cands.len() >= ADAPT_MIN_LEAVES && sonar.params.leaf_model == LeafModel::Paper {
             let stride = (cands.len() / SAMPLE).max(1);
-            let sample: Vec<LeafTerm> = cands
-                .iter()
-                .step_by(stride)
-                .filter_map(|&i| classify_member(scene, sonar, pose, i))
-                .map(|m| leaf_term(sonar, scene, &m))
+            let picked: Vec<u32> = cands.iter().step_by(stride).copied().collect();
+            // (in parallel, in order: the reads are scattered)
+            let sample: Vec<LeafTerm> = picked
+                .par_chunks(128)
+                .flat_map_iter(|c| sample_terms(scene, sonar, pose, c))
                 .collect();
             let refs: Vec<&LeafTerm> = sample.iter().collect();
             let p = choose_nodes_from(sonar, plan, &refs);
