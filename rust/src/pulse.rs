@@ -19,7 +19,8 @@ use crate::fast::{
     paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
-use crate::kernel::{paper_regime, paper_regime_of, PaperRegime};
+use crate::kernel::{paper_regime, paper_regime_of};
+use crate::leaf_model::{PAPER_B0, PAPER_B1};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -27,6 +28,7 @@ use crate::sonar::{LeafModel, Sonar, TooClose};
 use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
+use std::f64::consts::FRAC_PI_2;
 
 /// Candidates sampled to choose the node count (it uses at most 256 smooth members).
 const SAMPLE: usize = 512;
@@ -91,6 +93,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         }
         lanes.n = 0;
     };
+    let kp_low_edge = sonar.tables.kp[0];
     for block in cands.chunks(CB) {
         let (v, range) = classify_candidates(scene, sonar, pose, block, &mut part.too_close);
         if !paper {
@@ -124,12 +127,14 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             kink: [NOT_KINKED; LB],
             floor: [0.0; LB],
         };
-        let regime: [PaperRegime; CB] =
-            std::array::from_fn(|k| paper_regime_of(&sonar.tables, bl.ap[k], bl.beta[k]));
-        if lanes.n == 0
-            && nb == CB
-            && (0..CB).all(|k| v.verdict[k] == 1 && regime[k] == PaperRegime::Smooth)
-        {
+        // Smooth (`paper_regime_of`) is `B(c) beta < pi/2` at the band's low edge, where it
+        // is largest: one branch-free test per lane.
+        let mut smooth = true;
+        for k in 0..CB {
+            let x_hi = PAPER_B1.mul_add(kp_low_edge * bl.ap[k], PAPER_B0) * bl.beta[k];
+            smooth &= v.verdict[k] == 1 && x_hi < FRAC_PI_2;
+        }
+        if lanes.n == 0 && nb == CB && smooth {
             part.count += CB as u64;
             flush(&mut bl, &mut part);
             continue;
@@ -137,7 +142,10 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         for (k, &i) in block.iter().enumerate() {
             let route = match v.verdict[k] {
                 0 => continue,
-                1 => paper_route(sonar, regime[k], bl.ap[k], bl.beta[k]),
+                1 => {
+                    let regime = paper_regime_of(&sonar.tables, bl.ap[k], bl.beta[k]);
+                    paper_route(sonar, regime, bl.ap[k], bl.beta[k])
+                }
                 _ => {
                     // on the detectable boundary: the libm decision
                     let Some(mb) = classify_member(scene, sonar, pose, i) else {
