@@ -1520,6 +1520,7 @@ mod tests {
     use crate::absorption::Atmosphere;
     use crate::sonar::SonarParams;
     use crate::spectrum::sum_terms;
+    use crate::test_util::rel_l2_pair as rel_l2;
 
     fn sonar(atm: Option<Atmosphere>, model: LeafModel) -> Sonar {
         let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
@@ -1546,17 +1547,6 @@ mod tests {
                 )
             })
             .collect()
-    }
-
-    fn rel_l2(a: &(Vec<f64>, Vec<f64>), b: &(Vec<f64>, Vec<f64>)) -> f64 {
-        let num: f64 =
-            a.0.iter()
-                .zip(&b.0)
-                .chain(a.1.iter().zip(&b.1))
-                .map(|(x, y)| (x - y).powi(2))
-                .sum();
-        let den: f64 = b.0.iter().chain(&b.1).map(|y| y * y).sum();
-        (num / den).sqrt()
     }
 
     #[test]

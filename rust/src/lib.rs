@@ -45,4 +45,19 @@ pub(crate) mod test_util {
             (seed >> 11) as f64 / (1u64 << 53) as f64
         }
     }
+
+    /// Relative L2 distance of the spectrum `a` from `b` (real and imaginary parts).
+    pub(crate) fn rel_l2(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> f64 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for j in 0..a.0.len() {
+            num += (a.0[j] - b.0[j]).powi(2) + (a.1[j] - b.1[j]).powi(2);
+            den += b.0[j].powi(2) + b.1[j].powi(2);
+        }
+        (num / den).sqrt()
+    }
+
+    /// [`rel_l2`] of owned `(re, im)` pairs.
+    pub(crate) fn rel_l2_pair(a: &(Vec<f64>, Vec<f64>), b: &(Vec<f64>, Vec<f64>)) -> f64 {
+        rel_l2((&a.0, &a.1), (&b.0, &b.1))
+    }
 }

@@ -287,6 +287,7 @@ mod tests {
     use super::*;
     use crate::sonar::{LobeRule, SonarParams};
     use crate::spectrum::band_spectrum;
+    use crate::test_util::rel_l2;
 
     /// `n` leaves in a box in front of the origin: radii 0.5 mm - 5 cm, random normals.
     fn scene(n: usize, seed: u64) -> Scene {
@@ -323,16 +324,6 @@ mod tests {
             }
         }
         out
-    }
-
-    fn rel_l2(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> f64 {
-        let mut num = 0.0;
-        let mut den = 0.0;
-        for j in 0..a.0.len() {
-            num += (a.0[j] - b.0[j]).powi(2) + (a.1[j] - b.1[j]).powi(2);
-            den += b.0[j].powi(2) + b.1[j].powi(2);
-        }
-        (num / den).sqrt()
     }
 
     #[test]

@@ -188,6 +188,7 @@ mod tests {
     use crate::kernel::{paper_regime, PaperRegime};
     use crate::sonar::SonarParams;
     use crate::spectrum::sum_terms;
+    use crate::test_util::rel_l2_pair as rel_l2;
     use crate::test_util::uniforms;
 
     fn sonar(atm: Option<Atmosphere>, window: Window) -> Sonar {
@@ -209,15 +210,6 @@ mod tests {
         .filter(|t| paper_regime(&s.tables, t) == PaperRegime::Kinked)
         .take(n)
         .collect()
-    }
-
-    fn rel_l2(a: &(Vec<f64>, Vec<f64>), b: &(Vec<f64>, Vec<f64>)) -> f64 {
-        let (mut num, mut den) = (0.0, 0.0);
-        for j in 0..a.0.len() {
-            num += (a.0[j] - b.0[j]).powi(2) + (a.1[j] - b.1[j]).powi(2);
-            den += b.0[j].powi(2) + b.1[j].powi(2);
-        }
-        (num / den).sqrt()
     }
 
     #[test]
