@@ -348,6 +348,7 @@ pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
 /// [`paper_regime`] of a leaf with `radius^-0.9065 = ap` at incidence `beta`.
 #[inline(always)]
 pub(crate) fn paper_regime_of(tab: &BandTables, ap: f64, beta: f64) -> PaperRegime {
+    // (`paper_smooth` is the Smooth case alone; keep the two in step)
     let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * ap, PAPER_B0) * beta;
     let x_hi = PAPER_B1.mul_add(tab.kp[0] * ap, PAPER_B0) * beta;
     if x_lo >= FRAC_PI_2 {
@@ -359,6 +360,14 @@ pub(crate) fn paper_regime_of(tab: &BandTables, ap: f64, beta: f64) -> PaperRegi
     } else {
         PaperRegime::Kinked
     }
+}
+
+/// Whether [`paper_regime_of`] is `Smooth`, branch-free: `B(c) beta < pi/2` at the band's low
+/// edge (`kp[0]`), where it is largest (so the leaf is not `Zero` either, nor out of the
+/// domain). NaN gives false.
+#[inline(always)]
+pub(crate) fn paper_smooth(kp_low_edge: f64, ap: f64, beta: f64) -> bool {
+    PAPER_B1.mul_add(kp_low_edge * ap, PAPER_B0) * beta < FRAC_PI_2
 }
 
 /// The leaf factor `F = amp L exp(-j psi) / k [exp(-atten r)]` of the paper model on one block
@@ -762,6 +771,29 @@ mod tests {
 
     fn kink_free(s: &Sonar, t: &LeafTerm) -> bool {
         (PAPER_B1 * (s.tables.kp[0] * t.radius.powf(PAPER_BP)) + PAPER_B0) * t.beta < FRAC_PI_2
+    }
+
+    #[test]
+    fn paper_smooth_is_the_smooth_regime_exactly() {
+        let mut u = crate::test_util::uniforms(11);
+        for f_lo in [60e3, 20e3] {
+            let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+            p.f_lo = f_lo;
+            let s = Sonar::new(p).unwrap();
+            let tab = &s.tables;
+            let mut seen = [0usize; 4];
+            for _ in 0..200_000 {
+                let radius = 1e-4 * 3000f64.powf(u());
+                let beta = u() * std::f64::consts::FRAC_PI_2;
+                let ap = radius.powf(PAPER_BP);
+                let regime = paper_regime_of(tab, ap, beta);
+                seen[regime as usize] += 1;
+                let smooth = regime == PaperRegime::Smooth;
+                assert_eq!(paper_smooth(tab.kp[0], ap, beta), smooth, "{radius} {beta}");
+            }
+            assert!(seen.iter().all(|&n| n > 0) || f_lo > 50e3, "{seen:?}");
+        }
+        assert!(!paper_smooth(1.0, f64::NAN, 1.0));
     }
 
     #[test]

@@ -19,8 +19,7 @@ use crate::fast::{
     paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
-use crate::kernel::{paper_regime, paper_regime_of};
-use crate::leaf_model::{PAPER_B0, PAPER_B1};
+use crate::kernel::{paper_regime, paper_regime_of, paper_smooth};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -28,7 +27,6 @@ use crate::sonar::{LeafModel, Sonar, TooClose};
 use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
 use multiversion::multiversion;
 use rayon::prelude::*;
-use std::f64::consts::FRAC_PI_2;
 
 /// Candidates sampled to choose the node count (it uses at most 256 smooth members).
 const SAMPLE: usize = 512;
@@ -127,12 +125,10 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             kink: [NOT_KINKED; LB],
             floor: [0.0; LB],
         };
-        // Smooth (`paper_regime_of`) is `B(c) beta < pi/2` at the band's low edge, where it
-        // is largest: one branch-free test per lane.
+        // (one branch-free test per lane)
         let mut smooth = true;
         for k in 0..CB {
-            let x_hi = PAPER_B1.mul_add(kp_low_edge * bl.ap[k], PAPER_B0) * bl.beta[k];
-            smooth &= v.verdict[k] == 1 && x_hi < FRAC_PI_2;
+            smooth &= v.verdict[k] == 1 && paper_smooth(kp_low_edge, bl.ap[k], bl.beta[k]);
         }
         if lanes.n == 0 && nb == CB && smooth {
             part.count += CB as u64;
