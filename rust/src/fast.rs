@@ -1508,15 +1508,14 @@ pub(crate) fn finish_grid(
 mod tests {
     use super::*;
     use crate::absorption::Atmosphere;
-    use crate::sonar::SonarParams;
     use crate::spectrum::sum_terms;
-    use crate::test_util::rel_l2_pair as rel_l2;
+    use crate::test_util::{rel_l2_pair as rel_l2, sonar_with};
 
     fn sonar(atm: Option<Atmosphere>, model: LeafModel) -> Sonar {
-        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-        p.atmosphere = atm;
-        p.leaf_model = model;
-        Sonar::new(p).unwrap()
+        sonar_with(|p| {
+            p.atmosphere = atm;
+            p.leaf_model = model;
+        })
     }
 
     use crate::test_util::uniforms;
@@ -1625,10 +1624,10 @@ mod tests {
     fn a_deferring_pass_returns_exact_routed_leaves_apart_from_its_failures() {
         // a 20-80 kHz band: wide enough for leaves outside the model's domain (B(c) beta past
         // pi at the low edge while live at the high one)
-        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-        p.f_lo = 20e3;
-        p.min_ka = 0.01;
-        let s = Sonar::new(p).unwrap();
+        let s = sonar_with(|p| {
+            p.f_lo = 20e3;
+            p.min_ka = 0.01;
+        });
         // kinked leaves (in batches) and, every fourth, a 0.2 mm leaf outside the model's
         // domain (to the exact sum)
         let mut u = uniforms(5);

@@ -679,13 +679,14 @@ fn paper_blocks<const ATTEN: bool>(
 mod tests {
     use super::*;
     use crate::absorption::Atmosphere;
-    use crate::sonar::{Sonar, SonarParams};
+    use crate::sonar::Sonar;
+    use crate::test_util::sonar_with;
 
     fn sonar(atmosphere: Option<Atmosphere>, min_ka: f64) -> Sonar {
-        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-        p.atmosphere = atmosphere;
-        p.min_ka = min_ka;
-        Sonar::new(p).unwrap()
+        sonar_with(|p| {
+            p.atmosphere = atmosphere;
+            p.min_ka = min_ka;
+        })
     }
 
     /// Spectra of one leaf by each path: (smooth, pointwise, scalar libm).
@@ -777,9 +778,7 @@ mod tests {
     fn paper_smooth_is_the_smooth_regime_exactly() {
         let mut u = crate::test_util::uniforms(11);
         for f_lo in [60e3, 20e3] {
-            let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-            p.f_lo = f_lo;
-            let s = Sonar::new(p).unwrap();
+            let s = sonar_with(|p| p.f_lo = f_lo);
             let tab = &s.tables;
             let mut seen = [0usize; 4];
             for _ in 0..200_000 {
@@ -904,9 +903,7 @@ mod tests {
 
     #[test]
     fn smooth_path_handles_records_with_many_bins() {
-        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-        p.n_samples = 1_000_000;
-        let s = Sonar::new(p).unwrap();
+        let s = sonar_with(|p| p.n_samples = 1_000_000);
         let t = term(1.0, 3.0, 0.4, 0.02);
         let (smooth, _point, exact) = paths(&s, &t);
         assert!(s.tables.nodes.n_blocks > 300);

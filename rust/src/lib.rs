@@ -46,6 +46,15 @@ pub(crate) mod test_util {
         }
     }
 
+    /// A sonar with a 30 degree beam and the defaults, as `edit` changes them.
+    pub(crate) fn sonar_with(
+        edit: impl FnOnce(&mut crate::sonar::SonarParams),
+    ) -> crate::sonar::Sonar {
+        let mut p = crate::sonar::SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        edit(&mut p);
+        crate::sonar::Sonar::new(p).unwrap()
+    }
+
     /// Relative L2 distance of the spectrum `a` from `b` (real and imaginary parts).
     pub(crate) fn rel_l2(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> f64 {
         let (mut num, mut den) = (0.0, 0.0);

@@ -201,16 +201,14 @@ mod tests {
     use super::*;
     use crate::absorption::Atmosphere;
     use crate::kernel::{paper_regime, PaperRegime};
-    use crate::sonar::SonarParams;
     use crate::spectrum::sum_terms;
-    use crate::test_util::rel_l2_pair as rel_l2;
-    use crate::test_util::uniforms;
+    use crate::test_util::{rel_l2_pair as rel_l2, sonar_with, uniforms};
 
     fn sonar(atm: Option<Atmosphere>, window: Window) -> Sonar {
-        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-        p.atmosphere = atm;
-        p.window = window;
-        Sonar::new(p).unwrap()
+        sonar_with(|p| {
+            p.atmosphere = atm;
+            p.window = window;
+        })
     }
 
     /// `n` kinked leaves: radii 3 mm - 10 cm, near and far.
@@ -250,9 +248,8 @@ mod tests {
 
     #[test]
     fn a_band_of_fewer_than_four_sub_bands_has_none() {
-        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
-        p.f_lo = 75e3; // 301 bins
-        assert!(SubBands::new(&Sonar::new(p).unwrap()).unwrap().is_none());
+        let s = sonar_with(|p| p.f_lo = 75e3); // 301 bins
+        assert!(SubBands::new(&s).unwrap().is_none());
     }
 
     #[test]
