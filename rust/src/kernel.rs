@@ -238,7 +238,8 @@ pub fn add_leaf(sonar: &Sonar, t: &LeafTerm, re: &mut [f64], im: &mut [f64]) {
 }
 
 /// Largest last Chebyshev coefficient (of 7, relative to the block's peak) of an interpolated
-/// physical-optics block.
+/// physical-optics block: `g` oscillates, so it is held far below the paper factor's
+/// [`CHEB_TOL`] (the interpolant's error then stays ~1e-12 of the block's peak).
 const PO_CHEB_TOL: f64 = 1e-10;
 
 /// Physical optics' smooth extension `g = amp (c^2/2) cos(beta) jinc(2 c sin(beta)) / k
@@ -282,13 +283,7 @@ fn po_blocks<const ATTEN: bool>(
         let nodes: [f64; LANES] = std::array::from_fn(|i| {
             po_extension(t, nt.k[b * LANES + i], atten(&nt.atten, b * LANES + i))
         });
-        let poly = block_poly(tab, &nodes, &zero).filter(|_| {
-            // (`g` oscillates: hold its last Chebyshev coefficient far below the paper
-            // factor's bound, so that the interpolant's error stays ~1e-12 of the block's peak)
-            let last = (0..NODES).fold(0.0, |a, i| tab.cheb_last[i].mul_add(nodes[i], a));
-            let peak = nodes[..NODES].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            last.abs() <= PO_CHEB_TOL * peak
-        });
+        let poly = block_poly(tab, &nodes, &zero, PO_CHEB_TOL);
         for j0 in (j_start..j_end).step_by(LANES) {
             let mut fi = [0.0; LANES];
             match poly {
@@ -603,12 +598,14 @@ fn lanes_mut(v: &mut [f64], j0: usize) -> &mut [f64; LANES] {
 }
 
 /// Interpolate one block's factor from its node lanes: monomial coefficients in t, or None
-/// when the block fails the smoothness checks.
+/// when the block fails the smoothness checks (its last Chebyshev coefficient above
+/// `cheb_tol` of its peak, or its end value off).
 #[inline(always)]
 fn block_poly(
     tab: &BandTables,
     fr: &[f64; LANES],
     fi: &[f64; LANES],
+    cheb_tol: f64,
 ) -> Option<([f64; NODES], [f64; NODES])> {
     let mut peak = 0.0f64;
     for i in 0..NODES {
@@ -619,7 +616,7 @@ fn block_poly(
         lr = tab.cheb_last[i].mul_add(fr[i], lr);
         li = tab.cheb_last[i].mul_add(fi[i], li);
     }
-    if !(lr.abs().max(li.abs()) <= CHEB_TOL * peak) {
+    if !(lr.abs().max(li.abs()) <= cheb_tol * peak) {
         return None;
     }
     // (a whole vector of coefficients per node, the nodes in order)
@@ -714,7 +711,7 @@ fn paper_blocks<const ATTEN: bool>(
         }
         let polys: [Option<([f64; NODES], [f64; NODES])>; STAGE] = std::array::from_fn(|s| {
             if s < nb && span[s].3 {
-                block_poly(tab, &nr[s], &ni[s])
+                block_poly(tab, &nr[s], &ni[s], CHEB_TOL)
             } else {
                 None
             }
@@ -1014,7 +1011,8 @@ mod tests {
         let t = node_t();
         let fr: [f64; LANES] = std::array::from_fn(|i| f(t[i]));
         let fi: [f64; LANES] = std::array::from_fn(|i| -2.0 * f(t[i]));
-        let (cr, ci) = block_poly(&s.tables, &fr, &fi).expect("a degree-6 polynomial is smooth");
+        let (cr, ci) =
+            block_poly(&s.tables, &fr, &fi, CHEB_TOL).expect("a degree-6 polynomial is smooth");
         for j in 0..=100 {
             let x = -1.0 + j as f64 / 50.0;
             let horner = |c: &[f64; NODES]| c.iter().rev().fold(0.0, |acc, &a| acc * x + a);
@@ -1032,7 +1030,7 @@ mod tests {
         let s = sonar(None, 0.5);
         let t = node_t();
         let fr: [f64; LANES] = std::array::from_fn(|i| t[i].abs());
-        assert!(block_poly(&s.tables, &fr, &[0.0; LANES]).is_none());
+        assert!(block_poly(&s.tables, &fr, &[0.0; LANES], CHEB_TOL).is_none());
     }
 
     #[test]
