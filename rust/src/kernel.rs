@@ -241,6 +241,8 @@ pub fn add_leaf(sonar: &Sonar, t: &LeafTerm, re: &mut [f64], im: &mut [f64]) {
 /// physical-optics block: `g` oscillates, so it is held far below the paper factor's
 /// [`CHEB_TOL`] (the interpolant's error then stays ~1e-12 of the block's peak).
 const PO_CHEB_TOL: f64 = 1e-10;
+/// Bins per physical-optics sub-block, tried where a whole block fails.
+const PO_SUB_BLOCK: usize = 32;
 
 /// Physical optics' smooth extension `g = amp (c^2/2) cos(beta) jinc(2 c sin(beta)) / k
 /// [exp(-atten r)]` at wavenumber `k` (rad/m): the leaf's factor is `j |g|` (`psi = -pi/2`).
@@ -273,6 +275,23 @@ fn po_blocks<const ATTEN: bool>(
     let (mut zr, mut zi) = ([0.0; LANES], [0.0; LANES]);
     let atten = |a: &[f64], i: usize| if ATTEN { a[i] } else { 0.0 };
     let zero = [0.0; LANES];
+    // `|p(t)|` at the lanes' local variables `tl`, times `exp(-atten r)` per bin (`scale`).
+    let interpolated = |cr: &[f64; NODES], tl: &[f64; LANES], j0: usize, scale: bool| {
+        std::array::from_fn(|i| {
+            let mut r = cr[POLY_DEG];
+            for p in (0..POLY_DEG).rev() {
+                r = r.mul_add(tl[i], cr[p]);
+            }
+            if ATTEN && scale {
+                r.abs() * (-tab.atten[j0 + i] * t.range).exp()
+            } else {
+                r.abs()
+            }
+        })
+    };
+    // Chebyshev nodes in t, as the block tables place them.
+    let tn: [f64; NODES] =
+        std::array::from_fn(|i| ((2 * i + 1) as f64 * PI / (2 * NODES) as f64).cos());
     for b in 0..nt.n_blocks {
         let j_start = b * POLY_BLOCK;
         let j_end = if b + 1 == nt.n_blocks {
@@ -284,39 +303,53 @@ fn po_blocks<const ATTEN: bool>(
             po_extension(t, nt.k[b * LANES + i], atten(&nt.atten, b * LANES + i))
         });
         let poly = block_poly(tab, &nodes, &zero, PO_CHEB_TOL);
-        for j0 in (j_start..j_end).step_by(LANES) {
-            let mut fi = [0.0; LANES];
-            match poly {
-                Some((cr, _)) => {
-                    let tl = lanes(&tab.t, j0);
-                    for i in 0..LANES {
-                        let mut r = cr[POLY_DEG];
-                        for p in (0..POLY_DEG).rev() {
-                            r = r.mul_add(tl[i], cr[p]);
-                        }
-                        fi[i] = r.abs();
+        // Sub-blocks a quarter as wide shrink the last coefficient ~4^6-fold: try them only
+        // where that can pass (with a factor 4 to spare).
+        let (last, peak) = last_coefficient(tab, &nodes, &zero);
+        let try_sub = poly.is_none() && last <= 4.0 * 4096.0 * PO_CHEB_TOL * peak;
+        for s0 in (j_start..j_end).step_by(PO_SUB_BLOCK) {
+            // Where the block fails, its sub-blocks of PO_SUB_BLOCK bins are tried (`g`
+            // without absorption at their own nodes; `exp(-atten r)` per bin), then `j1` per
+            // bin.
+            let s1 = (s0 + PO_SUB_BLOCK).min(j_end);
+            let sub = try_sub.then(|| {
+                let (c, h) = (
+                    (s0 + s1 - 1) as f64 / 2.0,
+                    ((s1 - s0 - 1) as f64 / 2.0).max(0.5),
+                );
+                let k_at = |x: f64| tab.k[0] * (tab.k0 + x) / tab.k0;
+                let nodes: [f64; LANES] = std::array::from_fn(|i| {
+                    let x = if i < NODES { c + h * tn[i] } else { c + h };
+                    po_extension(t, k_at(x), 0.0)
+                });
+                (block_poly(tab, &nodes, &zero, PO_CHEB_TOL), c, h)
+            });
+            for j0 in (s0..s1).step_by(LANES) {
+                let fi: [f64; LANES] = match (&poly, &sub) {
+                    (Some((cr, _)), _) => interpolated(cr, lanes(&tab.t, j0), j0, false),
+                    (None, Some((Some((cr, _)), c, h))) => {
+                        let tl = std::array::from_fn(|i| ((j0 + i) as f64 - c) / h);
+                        interpolated(cr, &tl, j0, true)
                     }
-                }
-                None => {
-                    for (i, f) in fi.iter_mut().enumerate() {
-                        *f = po_extension(t, tab.k[j0 + i], atten(&tab.atten, j0 + i)).abs();
-                    }
-                }
+                    _ => std::array::from_fn(|i| {
+                        po_extension(t, tab.k[j0 + i], atten(&tab.atten, j0 + i)).abs()
+                    }),
+                };
+                accumulate_block(
+                    false,
+                    j0,
+                    tab.k0,
+                    q,
+                    &pw,
+                    w8,
+                    &zero,
+                    &fi,
+                    &mut zr,
+                    &mut zi,
+                    lanes_mut(re, j0),
+                    lanes_mut(im, j0),
+                );
             }
-            accumulate_block(
-                false,
-                j0,
-                tab.k0,
-                q,
-                &pw,
-                w8,
-                &zero,
-                &fi,
-                &mut zr,
-                &mut zi,
-                lanes_mut(re, j0),
-                lanes_mut(im, j0),
-            );
         }
     }
 }
@@ -597,6 +630,22 @@ fn lanes_mut(v: &mut [f64], j0: usize) -> &mut [f64; LANES] {
         .expect("accumulators are padded to LANES")
 }
 
+/// The magnitude of a block's last Chebyshev coefficient from its node lanes, and the peak of
+/// its node values.
+#[inline(always)]
+fn last_coefficient(tab: &BandTables, fr: &[f64; LANES], fi: &[f64; LANES]) -> (f64, f64) {
+    let mut peak = 0.0f64;
+    for i in 0..NODES {
+        peak = peak.max(fr[i].abs()).max(fi[i].abs());
+    }
+    let (mut lr, mut li) = (0.0, 0.0);
+    for i in 0..NODES {
+        lr = tab.cheb_last[i].mul_add(fr[i], lr);
+        li = tab.cheb_last[i].mul_add(fi[i], li);
+    }
+    (lr.abs().max(li.abs()), peak)
+}
+
 /// Interpolate one block's factor from its node lanes: monomial coefficients in t, or None
 /// when the block fails the smoothness checks (its last Chebyshev coefficient above
 /// `cheb_tol` of its peak, or its end value off).
@@ -607,16 +656,8 @@ fn block_poly(
     fi: &[f64; LANES],
     cheb_tol: f64,
 ) -> Option<([f64; NODES], [f64; NODES])> {
-    let mut peak = 0.0f64;
-    for i in 0..NODES {
-        peak = peak.max(fr[i].abs()).max(fi[i].abs());
-    }
-    let (mut lr, mut li) = (0.0, 0.0);
-    for i in 0..NODES {
-        lr = tab.cheb_last[i].mul_add(fr[i], lr);
-        li = tab.cheb_last[i].mul_add(fi[i], li);
-    }
-    if !(lr.abs().max(li.abs()) <= cheb_tol * peak) {
+    let (last, peak) = last_coefficient(tab, fr, fi);
+    if !(last <= cheb_tol * peak) {
         return None;
     }
     // (a whole vector of coefficients per node, the nodes in order)
