@@ -79,6 +79,9 @@ pub struct BandTables {
     pub vinv: [[f64; LANES]; NODES],
     /// Last Chebyshev coefficient from node values: `c_D = sum_i cheb_last[i] F_i`.
     pub cheb_last: [f64; NODES],
+    /// The Chebyshev nodes in a block's local variable `t` (the order of `vinv` and
+    /// `cheb_last`).
+    pub node_t: [f64; NODES],
 }
 
 /// The per-bin tables evaluated at arbitrary (fractional) band-bin positions.
@@ -178,6 +181,7 @@ impl BandTables {
             nodes,
             vinv,
             cheb_last,
+            node_t: tn,
             m,
             m_pad,
             k0: k0 as f64,
@@ -289,9 +293,6 @@ fn po_blocks<const ATTEN: bool>(
             }
         })
     };
-    // Chebyshev nodes in t, as the block tables place them.
-    let tn: [f64; NODES] =
-        std::array::from_fn(|i| ((2 * i + 1) as f64 * PI / (2 * NODES) as f64).cos());
     for b in 0..nt.n_blocks {
         let j_start = b * POLY_BLOCK;
         let j_end = if b + 1 == nt.n_blocks {
@@ -305,8 +306,10 @@ fn po_blocks<const ATTEN: bool>(
         let poly = block_poly(tab, &nodes, &zero, PO_CHEB_TOL);
         // Sub-blocks a quarter as wide shrink the last coefficient ~4^6-fold: try them only
         // where that can pass (with a factor 4 to spare).
-        let (last, peak) = last_coefficient(tab, &nodes, &zero);
-        let try_sub = poly.is_none() && last <= 4.0 * 4096.0 * PO_CHEB_TOL * peak;
+        let try_sub = poly.is_none() && {
+            let (last, peak) = last_coefficient(tab, &nodes, &zero);
+            last <= 4.0 * 4096.0 * PO_CHEB_TOL * peak
+        };
         for s0 in (j_start..j_end).step_by(PO_SUB_BLOCK) {
             // Where the block fails, its sub-blocks of PO_SUB_BLOCK bins are tried (`g`
             // without absorption at their own nodes; `exp(-atten r)` per bin), then `j1` per
@@ -319,7 +322,11 @@ fn po_blocks<const ATTEN: bool>(
                 );
                 let k_at = |x: f64| tab.k[0] * (tab.k0 + x) / tab.k0;
                 let nodes: [f64; LANES] = std::array::from_fn(|i| {
-                    let x = if i < NODES { c + h * tn[i] } else { c + h };
+                    let x = if i < NODES {
+                        c + h * tab.node_t[i]
+                    } else {
+                        c + h
+                    };
                     po_extension(t, k_at(x), 0.0)
                 });
                 (block_poly(tab, &nodes, &zero, PO_CHEB_TOL), c, h)
