@@ -28,7 +28,9 @@ use crate::leaf_model::{self, *};
 use crate::phase::CyclesPerBin;
 use crate::sonar::{LeafModel, Sonar};
 use crate::spectrum::LeafTerm;
-use crate::vmath::{cos_0_pi, erf_in, erf_interval, exp_nonpos, sincos_unit};
+use crate::vmath::{
+    cos_0_pi, erf_in, erf_interval, exp_nonpos, j1_large, sincos_unit, J1_LARGE_MIN,
+};
 use multiversion::multiversion;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -261,6 +263,41 @@ fn po_extension(t: &LeafTerm, k: f64, atten: f64) -> f64 {
     }
 }
 
+/// [`po_extension`] at `LANES` wavenumbers `k` (with `1/k` and the absorption `atten`, Np/m):
+/// where every lane's `x = 2 c sin(beta)` is at least [`J1_LARGE_MIN`] (leaves whose `g`
+/// oscillates across the band), by the vectorised Hankel form [`j1_large`]; otherwise lane by
+/// lane with the C library's `j1`.
+#[inline(always)]
+fn po_extension_lanes<const ATTEN: bool>(
+    t: &LeafTerm,
+    k: &[f64; LANES],
+    inv_k: &[f64; LANES],
+    atten: &[f64; LANES],
+) -> [f64; LANES] {
+    let mut x = [0.0; LANES];
+    for i in 0..LANES {
+        x[i] = 2.0 * (k[i] * t.radius) * t.sin_beta;
+    }
+    if !x.iter().all(|&x| x >= J1_LARGE_MIN) {
+        return std::array::from_fn(|i| po_extension(t, k[i], if ATTEN { atten[i] } else { 0.0 }));
+    }
+    // (loops, not `array::from_fn`: its closure was compiled outside the multiversioned caller,
+    // where `mul_add` is a library call)
+    let mut g = [0.0; LANES];
+    for i in 0..LANES {
+        let c = k[i] * t.radius;
+        let inv_x = 1.0 / x[i];
+        // g = amp (c^2 / 2) cos(beta) (2 J1(x) / x) / k
+        g[i] = t.amp * (c * c) * t.cos_beta * (j1_large(x[i], inv_x) * inv_x) * inv_k[i];
+    }
+    if ATTEN {
+        for i in 0..LANES {
+            g[i] *= exp_nonpos(-atten[i] * t.range);
+        }
+    }
+    g
+}
+
 /// Physical optics over all bins, per block of [`POLY_BLOCK`] bins: the smooth `g`
 /// ([`po_extension`], the C library's Bessel `j1` at the block's nodes only) interpolated and
 /// its magnitude taken bin by bin (`||p| - |g|| <= |p - g|`, so the diffraction nulls' corners
@@ -277,21 +314,23 @@ fn po_blocks<const ATTEN: bool>(
     let nt = &tab.nodes;
     let (pw, w8) = phase_steps(q);
     let (mut zr, mut zi) = ([0.0; LANES], [0.0; LANES]);
-    let atten = |a: &[f64], i: usize| if ATTEN { a[i] } else { 0.0 };
     let zero = [0.0; LANES];
     // `|p(t)|` at the lanes' local variables `tl`, times `exp(-atten r)` per bin (`scale`).
+    // (a loop, not `array::from_fn`, whose closure can be compiled outside this function)
     let interpolated = |cr: &[f64; NODES], tl: &[f64; LANES], j0: usize, scale: bool| {
-        std::array::from_fn(|i| {
+        let mut out = [0.0; LANES];
+        for i in 0..LANES {
             let mut r = cr[POLY_DEG];
             for p in (0..POLY_DEG).rev() {
                 r = r.mul_add(tl[i], cr[p]);
             }
-            if ATTEN && scale {
+            out[i] = if ATTEN && scale {
                 r.abs() * (-tab.atten[j0 + i] * t.range).exp()
             } else {
                 r.abs()
-            }
-        })
+            };
+        }
+        out
     };
     for b in 0..nt.n_blocks {
         let j_start = b * POLY_BLOCK;
@@ -300,9 +339,13 @@ fn po_blocks<const ATTEN: bool>(
         } else {
             j_start + POLY_BLOCK
         };
-        let nodes: [f64; LANES] = std::array::from_fn(|i| {
-            po_extension(t, nt.k[b * LANES + i], atten(&nt.atten, b * LANES + i))
-        });
+        let at = b * LANES;
+        let nodes = po_extension_lanes::<ATTEN>(
+            t,
+            lanes(&nt.k, at),
+            lanes(&nt.inv_k, at),
+            if ATTEN { lanes(&nt.atten, at) } else { &zero },
+        );
         let poly = block_poly(tab, &nodes, &zero, PO_CHEB_TOL);
         // Sub-blocks a quarter as wide shrink the last coefficient ~4^6-fold: try them only
         // where that can pass (with a factor 4 to spare).
@@ -321,14 +364,14 @@ fn po_blocks<const ATTEN: bool>(
                     ((s1 - s0 - 1) as f64 / 2.0).max(0.5),
                 );
                 let k_at = |x: f64| tab.k[0] * (tab.k0 + x) / tab.k0;
-                let nodes: [f64; LANES] = std::array::from_fn(|i| {
-                    let x = if i < NODES {
+                let k: [f64; LANES] = std::array::from_fn(|i| {
+                    k_at(if i < NODES {
                         c + h * tab.node_t[i]
                     } else {
                         c + h
-                    };
-                    po_extension(t, k_at(x), 0.0)
+                    })
                 });
+                let nodes = po_extension_lanes::<false>(t, &k, &k.map(|k| 1.0 / k), &zero);
                 (block_poly(tab, &nodes, &zero, PO_CHEB_TOL), c, h)
             });
             for j0 in (s0..s1).step_by(LANES) {
@@ -338,9 +381,13 @@ fn po_blocks<const ATTEN: bool>(
                         let tl = std::array::from_fn(|i| ((j0 + i) as f64 - c) / h);
                         interpolated(cr, &tl, j0, true)
                     }
-                    _ => std::array::from_fn(|i| {
-                        po_extension(t, tab.k[j0 + i], atten(&tab.atten, j0 + i)).abs()
-                    }),
+                    _ => po_extension_lanes::<ATTEN>(
+                        t,
+                        lanes(&tab.k, j0),
+                        lanes(&tab.inv_k, j0),
+                        if ATTEN { lanes(&tab.atten, j0) } else { &zero },
+                    )
+                    .map(f64::abs),
                 };
                 accumulate_block(
                     false,
