@@ -1078,12 +1078,24 @@ impl Direct {
     }
 }
 
-/// Add a task's spread grid into `acc` and return it to the pool.
-pub(crate) fn add_grid(acc: &mut [f64], grid: Vec<f64>) {
-    for (a, v) in acc.iter_mut().zip(&grid) {
-        *a += v;
-    }
-    give_grid(grid);
+/// Values per parallel block of [`add_grids`].
+const GRID_SUM_BLOCK: usize = 8192;
+
+/// Add tasks' spread grids into `acc`, in their order at every value (so the sums do not
+/// depend on the thread count), in parallel over blocks of the grid; the grids go back to the
+/// pool.
+pub(crate) fn add_grids(acc: &mut [f64], grids: Vec<Vec<f64>>) {
+    acc.par_chunks_mut(GRID_SUM_BLOCK)
+        .enumerate()
+        .for_each(|(b, a)| {
+            let (at, n) = (b * GRID_SUM_BLOCK, a.len());
+            for g in &grids {
+                for (x, v) in a.iter_mut().zip(&g[at..at + n]) {
+                    *x += v;
+                }
+            }
+        });
+    grids.into_iter().for_each(give_grid);
 }
 
 /// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
@@ -1282,17 +1294,13 @@ pub(crate) fn second_chunk_len(n: usize) -> usize {
 
 /// The second fast pass over deferred leaves: the plan's full node count, tasks of
 /// [`second_chunk_len`], the leaves it still cannot represent summed exactly (None for none).
-pub(crate) fn second_pass(sonar: &Sonar, plan: &FastPlan, leaves: &[LeafTerm]) -> Option<Fixed> {
-    (!leaves.is_empty()).then(|| {
-        fast_sum_fixed(
-            sonar,
-            plan,
-            leaves,
-            &[],
-            false,
-            second_chunk_len(leaves.len()),
-        )
-    })
+pub(crate) fn second_pass(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    leaves: &[LeafTerm],
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    (!leaves.is_empty())
+        .then(|| fast_sum_fixed(sonar, plan, leaves, &[], second_chunk_len(leaves.len())))
 }
 
 /// Fewer failures than this are summed exactly rather than given a second fast pass.
@@ -1332,7 +1340,7 @@ pub(crate) fn leftover_pass(
     let ((second, sub), direct) = rayon::join(
         || {
             rayon::join(
-                || second_pass(sonar, plan, &retry2).map(|f| (f.re, f.im)),
+                || second_pass(sonar, plan, &retry2),
                 || {
                     let s = subs.as_ref().filter(|_| !kinked.is_empty())?;
                     // (a sub-band plan cannot fail where the band's did; if one did, the
@@ -1377,12 +1385,21 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
     let p = choose_nodes(sonar, plan, terms);
     if p < plan.p {
         if let Ok(smaller) = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p) {
-            // First pass with fewer nodes; leaves it cannot represent get the full count.
-            let first = fast_sum_fixed(sonar, &smaller, terms, &[], true, chunk_len(terms.len()));
-            let (mut re, mut im) = (first.re, first.im);
+            // First pass with fewer nodes; leaves it cannot represent get the full count, in a
+            // later pass that runs beside the first pass's transforms.
+            let first = spread_pass(sonar, &smaller, terms, &[], chunk_len(terms.len()));
             let retry: Vec<LeafTerm> = first.deferred.iter().map(|&i| terms[i]).collect();
             let exact: Vec<LeafTerm> = first.exact.iter().map(|&i| terms[i]).collect();
-            if let Some((lr, li)) = leftover_pass(sonar, plan, &retry, &exact) {
+            let (left, (mut re, mut im)) = rayon::join(
+                || leftover_pass(sonar, plan, &retry, &exact),
+                || {
+                    let Spread { grid, sums, .. } = first;
+                    let out = finish_grid(sonar, &smaller, &grid, (sums.re, sums.im));
+                    give_grid(grid);
+                    out
+                },
+            );
+            if let Some((lr, li)) = left {
                 for j in 0..re.len() {
                     re[j] += lr[j];
                     im[j] += li[j];
@@ -1391,37 +1408,79 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
             return (re, im);
         }
     }
-    let f = fast_sum_fixed(sonar, plan, terms, &[], false, chunk_len(terms.len()));
-    (f.re, f.im)
+    fast_sum_fixed(sonar, plan, terms, &[], chunk_len(terms.len()))
 }
 
-/// One fast pass at the plan's node count, `chunk` leaves per task; with `defer`, the leaves
-/// it cannot represent and those routed to the exact sum are returned ([`Fixed`]) instead of
-/// summed exactly. `floors` (empty, or one per term) are lower bounds of the leaves' peaks
-/// over a wider band, for the smoothness check ([`PaperLanes::floor`]).
+/// One fast pass at the plan's node count, `chunk` leaves per task: the windowed band
+/// spectrum, the leaves it cannot represent (and those outside the model's domain) summed
+/// exactly. `floors` (empty, or one per term) are lower bounds of the leaves' peaks over a
+/// wider band, for the smoothness check ([`PaperLanes::floor`]).
 pub(crate) fn fast_sum_fixed(
     sonar: &Sonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
     floors: &[f64],
-    defer: bool,
     chunk: usize,
-) -> Fixed {
+) -> (Vec<f64>, Vec<f64>) {
+    let Spread {
+        grid,
+        mut sums,
+        deferred,
+        exact,
+    } = spread_pass(sonar, plan, terms, floors, chunk);
+    // (the exact path's fixed parallel chunks, in ascending order; the window is applied
+    // below, once, to both)
+    let mut all: Vec<usize> = deferred.into_iter().chain(exact).collect();
+    all.sort_unstable();
+    let rest: Vec<LeafTerm> = all.iter().map(|&i| terms[i]).collect();
+    sums.add_exact(sonar, &rest);
+    let out = finish_grid(sonar, plan, &grid, (sums.re, sums.im));
+    give_grid(grid);
+    out
+}
+
+/// The spreading of one fast pass: the tasks' grids summed, the terms they added bin by bin,
+/// and the leaves they left, as ascending indices into the terms.
+pub(crate) struct Spread {
+    grid: Vec<f64>,
+    sums: Direct,
+    /// Leaves the interpolation cannot represent (for a later pass).
+    pub(crate) deferred: Vec<usize>,
+    /// Leaves outside the model's domain (for the exact sum).
+    pub(crate) exact: Vec<usize>,
+}
+
+/// The spreading part of a fast pass ([`fast_sum_fixed`]): `chunk` leaves per task, grids
+/// summed in task order.
+pub(crate) fn spread_pass(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    terms: &[LeafTerm],
+    floors: &[f64],
+    chunk: usize,
+) -> Spread {
     let m = sonar.n_bins();
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut grid = take_grid(2 * p * glen);
     let mut sums = Direct::new(m);
     let (mut deferred, mut exact): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
     let mut offset = 0usize;
-    let mut add = |part: Partial, len: usize| {
-        deferred.extend(part.deferred.iter().map(|&i| i + offset));
-        exact.extend(part.exact.iter().map(|&i| i + offset));
-        sums.add(&part.direct);
-        offset += len;
-        add_grid(&mut grid, part.grid);
+    let mut add = |parts: Vec<(Partial, usize)>| {
+        let mut grids = Vec::with_capacity(parts.len());
+        for (part, len) in parts {
+            deferred.extend(part.deferred.iter().map(|&i| i + offset));
+            exact.extend(part.exact.iter().map(|&i| i + offset));
+            sums.add(&part.direct);
+            offset += len;
+            grids.push(part.grid);
+        }
+        add_grids(&mut grid, grids);
     };
     if terms.len() <= chunk {
-        add(spread_chunk(sonar, plan, terms, floors), terms.len());
+        add(vec![(
+            spread_chunk(sonar, plan, terms, floors),
+            terms.len(),
+        )]);
     } else {
         // (16 grids at a time at most: memory stays bounded for long records)
         for (b, batch) in terms.chunks(chunk * 16).enumerate() {
@@ -1434,37 +1493,15 @@ pub(crate) fn fast_sum_fixed(
                     (spread_chunk(sonar, plan, c, f), c.len())
                 })
                 .collect();
-            parts.into_iter().for_each(|(p, len)| add(p, len));
+            add(parts);
         }
     }
-    // Leaves the interpolation cannot represent and those routed to the exact sum: returned
-    // for a later pass, or summed by the exact path (its fixed parallel chunks, in ascending
-    // order; the window is applied below, once, to both).
-    if !defer {
-        let mut all: Vec<usize> = deferred.drain(..).chain(exact.drain(..)).collect();
-        all.sort_unstable();
-        let rest: Vec<LeafTerm> = all.iter().map(|&i| terms[i]).collect();
-        sums.add_exact(sonar, &rest);
-    }
-    let (re, im) = finish_grid(sonar, plan, &grid, (sums.re, sums.im));
-    give_grid(grid);
-    Fixed {
-        re,
-        im,
+    Spread {
+        grid,
+        sums,
         deferred,
         exact,
     }
-}
-
-/// What one fast pass gives: the windowed band spectrum, and (with `defer`) the leaves left
-/// for later passes, as ascending indices into its terms.
-pub(crate) struct Fixed {
-    pub(crate) re: Vec<f64>,
-    pub(crate) im: Vec<f64>,
-    /// For a second fast pass at the full node count.
-    pub(crate) deferred: Vec<usize>,
-    /// For the exact sum.
-    pub(crate) exact: Vec<usize>,
 }
 
 /// The windowed band spectrum from spread grids (one NUFFT per channel, then the Lagrange
@@ -1597,8 +1634,8 @@ mod tests {
             let spread = t.clone();
             for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
                 let plan = FastPlan::new(&s, tol).unwrap();
-                let f = fast_sum_fixed(&s, &plan, &spread, &[], true, chunk_len(spread.len()));
-                let (re, im, deferred) = (f.re, f.im, f.deferred);
+                let deferred =
+                    spread_pass(&s, &plan, &spread, &[], chunk_len(spread.len())).deferred;
                 // (a few fail the check on their live side and are summed exactly)
                 assert!(
                     deferred.len() * 4 <= spread.len(),
@@ -1606,7 +1643,6 @@ mod tests {
                     deferred.len(),
                     spread.len()
                 );
-                let _ = (re, im);
                 let err = rel_l2(&fast_sum_terms(&s, &plan, &t), &exact);
                 assert!(err <= tol, "atm {} tol {tol:e}: {err:e}", atm.is_some());
             }
@@ -1654,13 +1690,12 @@ mod tests {
         );
         let plan = FastPlan::new(&s, 1e-6).unwrap();
         // several tasks, so that the indices cross task boundaries
-        let f = fast_sum_fixed(&s, &plan, &t, &[], true, 64);
+        let f = spread_pass(&s, &plan, &t, &[], 64);
         assert_eq!(f.exact, want);
         assert!(f.deferred.iter().all(|i| !routed(&t[*i])));
-        // without deferring, nothing is returned and every leaf is counted once
-        let g = fast_sum_fixed(&s, &plan, &t, &[], false, 64);
-        assert!(g.deferred.is_empty() && g.exact.is_empty());
-        assert!(rel_l2(&(g.re, g.im), &sum_terms(&s, &t)) <= 1e-6);
+        // a whole pass sums both exactly: every leaf is counted once
+        let g = fast_sum_fixed(&s, &plan, &t, &[], 64);
+        assert!(rel_l2(&g, &sum_terms(&s, &t)) <= 1e-6);
     }
 
     #[test]

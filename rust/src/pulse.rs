@@ -15,7 +15,7 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    add_grid, choose_nodes_from, chunk_len, finish_grid, give_grid, leftover_pass, paper_batch,
+    add_grids, choose_nodes_from, chunk_len, finish_grid, give_grid, leftover_pass, paper_batch,
     paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
@@ -260,10 +260,12 @@ pub fn fast_pulse(
         || {
             let mut parts = parts.into_iter();
             let mut acc = parts.next().expect("one part at least");
+            let mut grids = Vec::with_capacity(parts.len());
             for part in parts {
-                add_grid(&mut acc.grid, part.grid);
                 acc.direct.add(&part.direct);
+                grids.push(part.grid);
             }
+            add_grids(&mut acc.grid, grids);
             let out = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
             give_grid(acc.grid);
             out

@@ -172,8 +172,13 @@ fn band_sum(
         return Ok((vec![0.0; m], vec![0.0; m]));
     }
     let plan = sub.fast_plans.get_with_nodes(sub, tol, p)?;
-    let f = fast_sum_fixed(sub, &plan, terms, floors, false, chunk_len(terms.len()));
-    Ok((f.re, f.im))
+    Ok(fast_sum_fixed(
+        sub,
+        &plan,
+        terms,
+        floors,
+        chunk_len(terms.len()),
+    ))
 }
 
 /// The magnitude of a kinked leaf's channel value at the band's last bin, where it is live: a
@@ -321,7 +326,7 @@ mod tests {
         let n = terms.len();
         for (b, (lo, sub)) in subs.bands.iter().enumerate() {
             let plan = sub.fast_plans.get_with_nodes(sub, 1e-6, p).unwrap();
-            let f = fast_sum_fixed(sub, &plan, &terms, &floors, true, 1024);
+            let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024);
             // (in the last sub-band, leaves whose corner lies there have a small value at the
             // top bin, the floor of their budget)
             let most = if b + 1 == subs.bands.len() {
