@@ -288,51 +288,64 @@ pub fn cis_neg_cycles(t: f64) -> (f64, f64) {
     (cr, -sr)
 }
 
-/// Where [`j1_large`] holds: `x >= 8` (the C library's own switch to these rationals).
-pub const J1_LARGE_MIN: f64 = 8.0;
+/// Where the Hankel form [`j1_hankel`] takes over from the small-argument series
+/// ([`jinc_small`]): `x >= 2`, as in the C library.
+pub const J1_HANKEL_MIN: f64 = 2.0;
 
-/// fdlibm's (musl, `libm` crate) rationals for Hankel's `P1`, `Q1` on `x >= 8`, in `z = 1/x^2`:
-/// `P1 = 1 + R/S`, `Q1 = (0.375 + R'/S') / x` (their stated errors 2^-60 and 2^-61).
-const J1_PR8: [f64; 6] = [
-    0.0,
-    1.171_874_999_999_886_5e-1,
-    1.323_948_065_930_735_8e1,
-    4.120_518_543_073_785_6e2,
-    3.874_745_389_139_605_3e3,
-    7.914_479_540_318_917e3,
-];
-const J1_PS8: [f64; 5] = [
-    1.142_073_703_756_784_1e2,
-    3.650_930_834_208_534_6e3,
-    3.695_620_602_690_334_6e4,
-    9.760_279_359_349_508e4,
-    3.080_427_206_278_888e4,
-];
-const J1_QR8: [f64; 6] = [
-    0.0,
-    -1.025_390_624_999_927_1e-1,
-    -1.627_175_345_445_9e1,
-    -7.596_017_225_139_501e2,
-    -1.184_980_667_024_295_9e4,
-    -4.843_851_242_857_503_5e4,
-];
-const J1_QS8: [f64; 6] = [
-    1.613_953_697_007_229e2,
-    7.825_385_999_233_485e3,
-    1.338_753_362_872_495_8e5,
-    7.196_577_236_832_409e5,
-    6.666_012_326_177_764e5,
-    -2.944_902_643_038_346_4e5,
-];
+/// The lower ends of fdlibm's intervals for `P1`, `Q1` (its high-word thresholds): interval
+/// 0 is `[8, inf)`, 1 `[4.5454.., 8)`, 2 `[2.8571.., 4.5454..)`, 3 `[2, 2.8571..)`.
+pub const J1_EDGES: [f64; 4] = [8.0, 4.545_452_117_919_922, 2.857_141_494_750_976_6, 2.0];
 
-/// The Bessel function `J1(x)` for `x >= 8` ([`J1_LARGE_MIN`]), branch-free, given `1/x`:
-/// `J1 = (P1 (sin x - cos x) + Q1 (sin x + cos x)) / sqrt(pi x)` (Hankel), with fdlibm's
-/// rationals for `P1`, `Q1` (one division for both) and `sin x`, `cos x` from `x / 2 pi`
-/// reduced with an FMA-split product (exact to ~1e-16 cycles for `x` up to 1e5). The error is
-/// below 1e-15 of the envelope `sqrt(2 / (pi x))` (tested against libm up to `x = 1e5`); no
-/// care is taken near the zeros, so the *relative* error there is larger.
+#[rustfmt::skip]
+#[allow(clippy::excessive_precision)]
+mod j1_coefficients {
+    /// fdlibm's `pone` numerators (`R`) and denominators (`S`) on [8, inf), [4.5454, 8),
+    /// [2.8571, 4.5454), [2, 2.8571) (copied from the `libm` crate's `j1.rs`).
+    pub(super) const J1_P1_R: [[f64; 6]; 4] = [
+        [0.0, 0.11718749999998865, 13.239480659307358, 412.05185430737856, 3874.7453891396053, 7914.479540318917],
+        [1.3199051955624352e-11, 0.1171874931906141, 6.802751278684329, 108.30818299018911, 517.6361395331998, 528.7152013633375],
+        [3.025039161373736e-09, 0.11718686556725359, 3.9329775003331564, 35.11940355916369, 91.05501107507813, 48.55906851973649],
+        [1.0771083010687374e-07, 0.11717621946268335, 2.368514966676088, 12.242610914826123, 17.693971127168773, 5.073523125888185],
+    ];
+    pub(super) const J1_P1_S: [[f64; 5]; 4] = [
+        [114.20737037567841, 3650.9308342085346, 36956.206026903346, 97602.79359349508, 30804.27206278888],
+        [59.28059872211313, 991.4014187336144, 5353.26695291488, 7844.690317495512, 1504.0468881036106],
+        [34.79130950012515, 336.76245874782575, 1046.8713997577513, 890.8113463982564, 103.78793243963928],
+        [21.43648593638214, 125.29022716840275, 232.2764690571628, 117.6793732871471, 8.364638933716183],
+    ];
+    pub(super) const J1_Q1_R: [[f64; 6]; 4] = [
+        [0.0, -0.10253906249999271, -16.271753454459, -759.6017225139501, -11849.806670242959, -48438.512428575035],
+        [-2.089799311417641e-11, -0.10253905024137543, -8.05644828123936, -183.66960747488838, -1373.1937606550816, -2612.4444045321566],
+        [-5.078312264617666e-09, -0.10253782982083709, -4.610115811394734, -57.847221656278364, -228.2445407376317, -219.21012847890933],
+        [-1.7838172751095887e-07, -0.10251704260798555, -2.7522056827818746, -19.663616264370372, -42.32531333728305, -21.371921170370406],
+    ];
+    pub(super) const J1_Q1_S: [[f64; 6]; 4] = [
+        [161.3953697007229, 7825.385999233485, 133875.33628724958, 719657.7236832409, 666601.2326177764, -294490.26430383464],
+        [81.27655013843358, 1991.7987346048596, 17468.48519249089, 49851.42709103523, 27948.075163891812, -4719.183547951285],
+        [47.66515503237295, 673.8651126766997, 3380.1528667952634, 5547.729097207228, 1903.119193388108, -135.20119144430734],
+        [29.533362906052385, 252.98154998219053, 757.5028348686454, 739.3932053204672, 155.94900333666612, -4.959498988226282],
+    ];
+    /// fdlibm's `j1` on [0, 2): `J1(x)/x = 1/2 + z R(z) / S(z)`, `z = x^2`.
+    pub(super) const J1_SMALL_R: [f64; 4] = [-0.0625, 0.001407056669551897, -1.599556310840356e-05, 4.9672799960958445e-08];
+    pub(super) const J1_SMALL_S: [f64; 5] = [0.019153759953836346, 0.00018594678558863092, 1.1771846404262368e-06, 5.0463625707621704e-09, 1.2354227442613791e-11];
+}
+use j1_coefficients::*;
+
+/// fdlibm's interval of `x` (0 to 3, see `J1_EDGES`), or 4 for `x < 2` (also NaN).
 #[inline(always)]
-pub fn j1_large(x: f64, inv_x: f64) -> f64 {
+pub fn j1_interval(x: f64) -> usize {
+    J1_EDGES.iter().position(|&e| x >= e).unwrap_or(4)
+}
+
+/// The Bessel function `J1(x)` for `x` in fdlibm's interval `IV` (0 to 3: `x >= 2`),
+/// branch-free, given `1/x`: `J1 = (P1 (sin x - cos x) + Q1 (sin x + cos x)) / sqrt(pi x)`
+/// (Hankel), with fdlibm's rationals for `P1`, `Q1` on that interval (one division for both)
+/// and `sin x`, `cos x` from `x / 2 pi` reduced with an FMA-split product (exact to ~1e-16
+/// cycles for `x` up to 1e5). The error is below 1e-15 of the envelope `sqrt(2 / (pi x))`
+/// (tested against libm to `x = 1e5`); no care is taken near the zeros, so the *relative*
+/// error there is larger.
+#[inline(always)]
+pub fn j1_hankel<const IV: usize>(x: f64, inv_x: f64) -> f64 {
     const INV_2PI_HI: f64 = 0.159_154_943_091_895_35; // 1/(2 pi) rounded
     const INV_2PI_LO: f64 = -9.839_338_337_591_243e-18; // 1/(2 pi) - INV_2PI_HI
     const INVSQRTPI: f64 = 0.564_189_583_547_756_3; // 1/sqrt(pi)
@@ -343,12 +356,23 @@ pub fn j1_large(x: f64, inv_x: f64) -> f64 {
     let s = -ms;
     let z = inv_x * inv_x;
     let poly = |c: &[f64], z: f64| c.iter().rev().fold(0.0f64, |acc, &v| acc.mul_add(z, v));
-    let (rp, sp) = (poly(&J1_PR8, z), z.mul_add(poly(&J1_PS8, z), 1.0));
-    let (rq, sq) = (poly(&J1_QR8, z), z.mul_add(poly(&J1_QS8, z), 1.0));
+    let (rp, sp) = (poly(&J1_P1_R[IV], z), z.mul_add(poly(&J1_P1_S[IV], z), 1.0));
+    let (rq, sq) = (poly(&J1_Q1_R[IV], z), z.mul_add(poly(&J1_Q1_S[IV], z), 1.0));
     let inv = 1.0 / (sp * sq);
     let p1 = 1.0 + rp * sq * inv;
     let q1 = (0.375 + rq * sp * inv) * inv_x;
     INVSQRTPI * p1.mul_add(s - c, q1 * (s + c)) * inv_x.sqrt()
+}
+
+/// `2 J1(x) / x` for `|x| < 2` (limit 1 at 0): fdlibm's `1 + 2 z R(z) / S(z)`, `z = x^2`
+/// (within 5e-16 of libm's `2 j1(x) / x`, tested).
+#[inline(always)]
+pub fn jinc_small(x: f64) -> f64 {
+    let z = x * x;
+    let poly = |c: &[f64], z: f64| c.iter().rev().fold(0.0f64, |acc, &v| acc.mul_add(z, v));
+    let r = z * poly(&J1_SMALL_R, z);
+    let s = z.mul_add(poly(&J1_SMALL_S, z), 1.0);
+    1.0 + 2.0 * r / s
 }
 
 #[cfg(test)]
@@ -360,16 +384,38 @@ mod tests {
     }
 
     #[test]
-    fn j1_large_matches_libm_to_1e_15_of_its_envelope() {
+    fn j1_hankel_matches_libm_to_1e_15_of_its_envelope_on_each_interval() {
         let mut worst = 0.0f64;
-        let xs = grid(8.0, 60.0, 200_000)
+        let xs = grid(2.0, 60.0, 400_000)
             .chain(grid(60.0, 2000.0, 200_000))
             .chain(grid(2000.0, 1e5, 20_000));
         for x in xs {
+            let j1 = match j1_interval(x) {
+                0 => j1_hankel::<0>(x, 1.0 / x),
+                1 => j1_hankel::<1>(x, 1.0 / x),
+                2 => j1_hankel::<2>(x, 1.0 / x),
+                3 => j1_hankel::<3>(x, 1.0 / x),
+                _ => unreachable!("{x}"),
+            };
             let envelope = (2.0 / (std::f64::consts::PI * x)).sqrt();
-            worst = worst.max((j1_large(x, 1.0 / x) - libm::j1(x)).abs() / envelope);
+            worst = worst.max((j1 - libm::j1(x)).abs() / envelope);
         }
         assert!(worst < 1e-15, "{worst:e}");
+    }
+
+    #[test]
+    fn jinc_small_matches_libm_to_5e_16() {
+        // (libm's `2 j1(x) / x` itself rounds three times)
+        let mut worst = 0.0f64;
+        for x in grid(0.0, 2.0, 200_000).filter(|&x| x < 2.0) {
+            let want = if x == 0.0 { 1.0 } else { 2.0 * libm::j1(x) / x };
+            worst = worst.max((jinc_small(x) - want).abs());
+        }
+        assert!(worst < 5e-16, "{worst:e}");
+        assert_eq!(j1_interval(1.999), 4);
+        assert_eq!(j1_interval(2.0), 3);
+        assert_eq!(j1_interval(8.0), 0);
+        assert_eq!(j1_interval(f64::NAN), 4);
     }
 
     #[test]
