@@ -288,10 +288,6 @@ pub fn cis_neg_cycles(t: f64) -> (f64, f64) {
     (cr, -sr)
 }
 
-/// Where the Hankel form [`j1_hankel`] takes over from the small-argument series
-/// ([`jinc_small`]): `x >= 2`, as in the C library.
-pub const J1_HANKEL_MIN: f64 = 2.0;
-
 /// The lower ends of fdlibm's intervals for `P1`, `Q1` (its high-word thresholds): interval
 /// 0 is `[8, inf)`, 1 `[4.5454.., 8)`, 2 `[2.8571.., 4.5454..)`, 3 `[2, 2.8571..)`.
 pub const J1_EDGES: [f64; 4] = [8.0, 4.545_452_117_919_922, 2.857_141_494_750_976_6, 2.0];
@@ -331,6 +327,12 @@ mod j1_coefficients {
 }
 use j1_coefficients::*;
 
+/// `sum_d c[d] z^d` (Horner, with FMA).
+#[inline(always)]
+fn poly(c: &[f64], z: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, &v| acc.mul_add(z, v))
+}
+
 /// fdlibm's interval of `x` (0 to 3, see `J1_EDGES`), or 4 for `x < 2` (also NaN).
 #[inline(always)]
 pub fn j1_interval(x: f64) -> usize {
@@ -355,7 +357,6 @@ pub fn j1_hankel<const IV: usize>(x: f64, inv_x: f64) -> f64 {
     let (c, ms) = cis_neg_cycles(f);
     let s = -ms;
     let z = inv_x * inv_x;
-    let poly = |c: &[f64], z: f64| c.iter().rev().fold(0.0f64, |acc, &v| acc.mul_add(z, v));
     let (rp, sp) = (poly(&J1_P1_R[IV], z), z.mul_add(poly(&J1_P1_S[IV], z), 1.0));
     let (rq, sq) = (poly(&J1_Q1_R[IV], z), z.mul_add(poly(&J1_Q1_S[IV], z), 1.0));
     let inv = 1.0 / (sp * sq);
@@ -369,7 +370,6 @@ pub fn j1_hankel<const IV: usize>(x: f64, inv_x: f64) -> f64 {
 #[inline(always)]
 pub fn jinc_small(x: f64) -> f64 {
     let z = x * x;
-    let poly = |c: &[f64], z: f64| c.iter().rev().fold(0.0f64, |acc, &v| acc.mul_add(z, v));
     let r = z * poly(&J1_SMALL_R, z);
     let s = z.mul_add(poly(&J1_SMALL_S, z), 1.0);
     1.0 + 2.0 * r / s
