@@ -750,6 +750,9 @@ pub(crate) struct PaperLanes {
     /// A lower bound of the leaf's peak over the whole band, for the smoothness check (0 when
     /// only this band is known; see [`crate::subband`]).
     pub(crate) floor: [f64; LB],
+    /// Lanes that add nothing (outside the lobe, or `L = 0` at every bin), in a batch only to
+    /// keep a block of candidates whole: computed, never spread, never deferred.
+    pub(crate) skip: [bool; LB],
 }
 
 /// [`PaperLanes`]' kink entry of a smooth leaf.
@@ -770,6 +773,7 @@ impl PaperLanes {
             aq: z,
             kink: [NOT_KINKED; LB],
             floor: z,
+            skip: [false; LB],
         }
     }
 
@@ -800,6 +804,7 @@ impl PaperLanes {
         self.aq[i] = t.radius_pow_p;
         self.kink[i] = kink;
         self.floor[i] = 0.0;
+        self.skip[i] = false;
         self.n = i + 1;
     }
 
@@ -817,6 +822,7 @@ impl PaperLanes {
         self.aq[i] = from.aq[k];
         self.kink[i] = kink;
         self.floor[i] = from.floor[k];
+        self.skip[i] = false;
         self.n = i + 1;
     }
 
@@ -851,6 +857,7 @@ impl PaperLanes {
             self.aq[i] = self.aq[n - 1];
             self.kink[i] = NOT_KINKED;
             self.floor[i] = self.floor[n - 1];
+            self.skip[i] = true;
         }
     }
 }
@@ -1131,6 +1138,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         aq,
         kink,
         floor,
+        skip,
         ..
     } = lanes;
     paper_nodes::<ATTEN>(plan, amp, range, beta, a, ap, aq, s);
@@ -1190,6 +1198,9 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
     let mut failed = [false; LB];
     let mut live = [false; LB];
     for i in 0..n {
+        if skip[i] {
+            continue;
+        }
         if !ok[i] {
             failed[i] = true;
             continue;

@@ -589,7 +589,7 @@ pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
 /// [`paper_regime`] of a leaf with `radius^-0.9065 = ap` at incidence `beta`.
 #[inline(always)]
 pub(crate) fn paper_regime_of(tab: &BandTables, ap: f64, beta: f64) -> PaperRegime {
-    // (`paper_smooth` is the Smooth case alone; keep the two in step)
+    // (`paper_regime_bits` is the same, branch-free; keep the two in step)
     let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * ap, PAPER_B0) * beta;
     let x_hi = PAPER_B1.mul_add(tab.kp[0] * ap, PAPER_B0) * beta;
     if x_lo >= FRAC_PI_2 {
@@ -603,13 +603,25 @@ pub(crate) fn paper_regime_of(tab: &BandTables, ap: f64, beta: f64) -> PaperRegi
     }
 }
 
-/// Whether [`paper_regime_of`] is `Smooth`, branch-free: `B(c) beta < pi/2` at the band's low
-/// edge (`kp[0]`), where it is largest (so the leaf is not `Zero` either, nor out of the
-/// domain). NaN gives false.
+/// [`paper_regime_of`] as a bit set, branch-free (for a block's lanes at once): one of
+/// [`REGIME_ZERO`], [`REGIME_SMOOTH`], [`REGIME_KINKED`]; 0 when out of the domain (or NaN).
 #[inline(always)]
-pub(crate) fn paper_smooth(kp_low_edge: f64, ap: f64, beta: f64) -> bool {
-    PAPER_B1.mul_add(kp_low_edge * ap, PAPER_B0) * beta < FRAC_PI_2
+pub(crate) fn paper_regime_bits(tab: &BandTables, ap: f64, beta: f64) -> u8 {
+    // (the same operations as `paper_regime_of`; keep the two in step)
+    let x_lo = PAPER_B1.mul_add(tab.kp[tab.m - 1] * ap, PAPER_B0) * beta;
+    let x_hi = PAPER_B1.mul_add(tab.kp[0] * ap, PAPER_B0) * beta;
+    let zero = x_lo >= FRAC_PI_2;
+    let smooth = !zero & (x_hi < FRAC_PI_2);
+    let kinked = !zero & (FRAC_PI_2..=PI).contains(&x_hi);
+    (u8::from(zero) * REGIME_ZERO)
+        | (u8::from(smooth) * REGIME_SMOOTH)
+        | (u8::from(kinked) * REGIME_KINKED)
 }
+
+/// [`paper_regime_bits`]' values.
+pub(crate) const REGIME_ZERO: u8 = 1;
+pub(crate) const REGIME_SMOOTH: u8 = 2;
+pub(crate) const REGIME_KINKED: u8 = 4;
 
 /// The leaf factor `F = amp L exp(-j psi) / k [exp(-atten r)]` of the paper model on one block
 /// of lanes, from the per-bin tables `k`, `1/k`, `k^-0.9065`, `k^0.3523` (and `atten`); without
@@ -1063,7 +1075,7 @@ mod tests {
     }
 
     #[test]
-    fn paper_smooth_is_the_smooth_regime_exactly() {
+    fn paper_regime_bits_name_the_regime_exactly() {
         let mut u = crate::test_util::uniforms(11);
         for f_lo in [60e3, 20e3] {
             let s = sonar_with(|p| p.f_lo = f_lo);
@@ -1075,12 +1087,19 @@ mod tests {
                 let ap = radius.powf(PAPER_BP);
                 let regime = paper_regime_of(tab, ap, beta);
                 seen[regime as usize] += 1;
-                let smooth = regime == PaperRegime::Smooth;
-                assert_eq!(paper_smooth(tab.kp[0], ap, beta), smooth, "{radius} {beta}");
+                let want = match regime {
+                    PaperRegime::Zero => REGIME_ZERO,
+                    PaperRegime::Smooth => REGIME_SMOOTH,
+                    PaperRegime::Kinked => REGIME_KINKED,
+                    PaperRegime::OutOfDomain => 0,
+                };
+                assert_eq!(paper_regime_bits(tab, ap, beta), want, "{radius} {beta}");
             }
             assert!(seen.iter().all(|&n| n > 0) || f_lo > 50e3, "{seen:?}");
         }
-        assert!(!paper_smooth(1.0, f64::NAN, 1.0));
+        let tab = &sonar_with(|_| ()).tables;
+        assert_eq!(paper_regime_bits(tab, f64::NAN, 1.0), 0);
+        assert_eq!(paper_regime_bits(tab, 1.0, f64::NAN), 0);
     }
 
     #[test]
