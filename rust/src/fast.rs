@@ -27,7 +27,10 @@
 //! where they need far fewer nodes.
 
 use crate::error::{invalid, Result};
-use crate::kernel::{cis_neg, first_live_bin, paper_regime, NodeTables, PaperRegime, LANES};
+use crate::kernel::{
+    cis_neg, first_live_bin, paper_regime, paper_regime_bits, NodeTables, PaperRegime, LANES,
+    REGIME_KINKED, REGIME_ZERO,
+};
 use crate::leaf_model;
 use crate::leaf_model::{
     PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1, PAPER_BETA_REF, PAPER_P0, PAPER_P1, PAPER_PSI0,
@@ -373,6 +376,10 @@ struct Partial {
     /// model's domain.
     exact: Vec<usize>,
 }
+
+/// The most lanes that add nothing in a block of leaves batched whole: each costs a lane of
+/// the batch's vector work (about three times what routing a counting leaf alone costs).
+pub(crate) const MAX_SKIP: usize = 4;
 
 /// Leaves per vector batch of the fast path (16: two AVX-512 vectors per operation, for
 /// overlapping dependent chains).
@@ -1260,19 +1267,55 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f6
                 );
                 lanes.n = 0;
             };
-            for (idx, t) in terms.iter().enumerate() {
-                let regime = paper_regime(&sonar.tables, t);
-                match paper_route(sonar, regime, t.radius_pow_b, t.beta) {
-                    PaperRoute::Skip => {}
-                    PaperRoute::Defer => part.exact.push(idx),
-                    PaperRoute::Batch(kink) => {
-                        ids[lanes.n] = idx;
-                        lanes.push(t, kink);
-                        if let Some(&f) = floors.get(idx) {
-                            lanes.floor[lanes.n - 1] = f;
+            let tab = &sonar.tables;
+            for (b, block) in terms.chunks(LB).enumerate() {
+                // A whole block is a batch as it stands when each leaf is smooth, kinked or
+                // zero at every bin, and at most `MAX_SKIP` are zero (branch-free tests per
+                // lane); otherwise each leaf goes its route.
+                let base = b * LB;
+                if block.len() == LB {
+                    let mut bl = PaperLanes::new();
+                    for t in block {
+                        bl.push(t, NOT_KINKED);
+                    }
+                    if let Some(f) = floors.get(base..base + LB) {
+                        bl.floor.copy_from_slice(f);
+                    }
+                    let (mut whole, mut n_skip) = (true, 0);
+                    let mut bits = [0u8; LB];
+                    #[allow(clippy::needless_range_loop)]
+                    for k in 0..LB {
+                        bits[k] = paper_regime_bits(tab, bl.ap[k], bl.beta[k]);
+                        whole &= bits[k] != 0;
+                        bl.skip[k] = bits[k] == REGIME_ZERO;
+                        n_skip += usize::from(bl.skip[k]);
+                    }
+                    if whole && n_skip <= MAX_SKIP {
+                        #[allow(clippy::needless_range_loop)]
+                        for k in 0..LB {
+                            if bits[k] == REGIME_KINKED {
+                                bl.kink[k] = kink_bin(sonar, bl.ap[k], bl.beta[k]);
+                            }
                         }
-                        if lanes.n == LB {
-                            flush(&mut lanes, &ids, &mut part);
+                        flush(&mut bl, &std::array::from_fn(|k| base + k), &mut part);
+                        continue;
+                    }
+                }
+                for (k, t) in block.iter().enumerate() {
+                    let idx = base + k;
+                    let regime = paper_regime(tab, t);
+                    match paper_route(sonar, regime, t.radius_pow_b, t.beta) {
+                        PaperRoute::Skip => {}
+                        PaperRoute::Defer => part.exact.push(idx),
+                        PaperRoute::Batch(kink) => {
+                            ids[lanes.n] = idx;
+                            lanes.push(t, kink);
+                            if let Some(&f) = floors.get(idx) {
+                                lanes.floor[lanes.n - 1] = f;
+                            }
+                            if lanes.n == LB {
+                                flush(&mut lanes, &ids, &mut part);
+                            }
                         }
                     }
                 }

@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::fast::{
     add_grids, choose_nodes_from, chunk_len, finish_grid, give_grid, kink_bin, leftover_pass,
     paper_batch, paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes,
-    PaperRoute, ADAPT_MIN_LEAVES, LB, NOT_KINKED,
+    PaperRoute, ADAPT_MIN_LEAVES, LB, MAX_SKIP, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_bits, paper_regime_of, REGIME_KINKED, REGIME_ZERO};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
@@ -30,10 +30,6 @@ use rayon::prelude::*;
 
 /// Candidates sampled to choose the node count (it uses at most 256 smooth members).
 const SAMPLE: usize = 512;
-
-/// The most lanes that add nothing in a block batched whole: each costs a lane of the batch's
-/// vector work (about three times what routing a counting leaf alone costs).
-const MAX_SKIP: usize = 4;
 
 /// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
 /// every leaf in index order.
