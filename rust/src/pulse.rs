@@ -106,9 +106,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             }
             continue;
         }
-        // The block's lanes as paper-model terms (as `leaf_term` computes them) and their
-        // regimes; a block of smooth counting leaves is a batch as it stands, otherwise each
-        // counting leaf goes its route.
+        // The block's lanes as paper-model terms (as `leaf_term` computes them).
         let nb = block.len();
         let leaf = |k: usize| block[k.min(nb - 1)] as usize;
         let mut bl = PaperLanes {
