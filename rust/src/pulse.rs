@@ -15,11 +15,11 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    add_grids, choose_nodes_from, chunk_len, finish_grid, give_grid, kink_bin, leftover_pass,
-    paper_batch, paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes,
-    PaperRoute, ADAPT_MIN_LEAVES, LB, MAX_SKIP, NOT_KINKED,
+    add_grids, choose_nodes_from, chunk_len, finish_grid, give_grid, leftover_pass, paper_batch,
+    paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
+    ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
-use crate::kernel::{paper_regime, paper_regime_bits, paper_regime_of, REGIME_KINKED, REGIME_ZERO};
+use crate::kernel::{paper_regime, paper_regime_of};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -123,34 +123,12 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             floor: [0.0; LB],
             skip: [false; LB],
         };
-        // A whole block is a batch as it stands when each lane is outside the lobe or a
-        // counting leaf that is smooth, kinked or zero at every bin, and at most `MAX_SKIP`
-        // lanes add nothing (branch-free tests per lane). Otherwise each counting leaf goes
-        // its route.
-        let (mut whole, mut n_skip, mut counting) = (nb == CB, 0, 0);
-        let mut kinked = [false; CB];
-        #[allow(clippy::needless_range_loop)]
-        for k in 0..CB {
-            let bits = paper_regime_bits(&sonar.tables, bl.ap[k], bl.beta[k]);
-            let (out, inside) = (v.verdict[k] == 0, v.verdict[k] == 1);
-            whole &= out | (inside & (bits != 0));
-            bl.skip[k] = out | (inside & (bits == REGIME_ZERO));
-            kinked[k] = inside & (bits == REGIME_KINKED);
-            n_skip += usize::from(bl.skip[k]);
-            counting += u64::from(inside);
-        }
-        if whole && n_skip <= MAX_SKIP {
-            part.count += counting;
-            #[allow(clippy::needless_range_loop)]
-            for k in 0..CB {
-                if kinked[k] {
-                    bl.kink[k] = kink_bin(sonar, bl.ap[k], bl.beta[k]);
-                }
-                if bl.skip[k] {
-                    // (finite values for the lane's unused arithmetic: it may be at range 0)
-                    (bl.amp[k], bl.range[k], bl.beta[k]) = (0.0, 1.0, 0.0);
-                }
-            }
+        // A block is a batch as it stands where it can be (`ready_whole`); otherwise each
+        // counting leaf goes its route.
+        let out = v.verdict.map(|x| x == 0);
+        let inside = v.verdict.map(|x| x == 1);
+        if bl.ready_whole(sonar, &out, &inside) {
+            part.count += inside.iter().map(|&x| u64::from(x)).sum::<u64>();
             flush(&mut bl, &mut part);
             continue;
         }
