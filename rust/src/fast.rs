@@ -906,7 +906,6 @@ impl PaperLanes {
             self.aq[i] = self.aq[n - 1];
             self.kink[i] = NOT_KINKED;
             self.floor[i] = self.floor[n - 1];
-            self.skip[i] = true;
         }
     }
 }
