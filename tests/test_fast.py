@@ -50,6 +50,24 @@ def test_fast_is_within_tol_with_many_leaves_at_one_range(seed, n, r, tol):
     assert_within_tol(leaves, sonar, pose, tol)
 
 
+@given(st.floats(0.003, 0.01), st.integers(1, 120), st.floats(0.5, 9.5), st.booleans(),
+       st.sampled_from([1e-9, 1e-11]))
+def test_fast_is_within_tol_for_a_kinked_leaf_with_a_tiny_live_part(radius, live, r, atm, tol):
+    # One paper-model leaf near grazing incidence whose corner (cos(B(c) beta) turning
+    # positive) lies in the band's top `live` bins: its live values are ~1e-4 of the factor's
+    # scale, where the cosine's rounding is ~1e-12 of them. (Not at 1e-12: there the exact sum
+    # itself errs by up to ~1e-12 on such a leaf, measured against mpmath, and the two differ
+    # by up to 1.5e-12.)
+    sonar = Sonar(beamwidth_deg=30.0, absorption=batecho.Atmosphere() if atm else None)
+    pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    probe = Leaves([[r, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [radius])
+    f = simulate(probe, sonar, pose, method="exact").freqs
+    c = 2.0 * np.pi * f[len(f) - live] / sonar.sound_speed * radius
+    beta = (np.pi / 2) / (0.3999 * c**-0.9065 + 0.9979) + 1e-12
+    leaf = Leaves([[r, 0.0, 0.0]], [[np.cos(beta), np.sin(beta), 0.0]], [radius])
+    assert_within_tol(leaf, sonar, pose, tol)
+
+
 @pytest.mark.parametrize("tol", TOLS)
 @pytest.mark.parametrize("kw", [{}, {"absorption": batecho.Atmosphere()},
                                 {"leaf_model": "physical_optics"}, {"spreading": False},
