@@ -50,14 +50,14 @@ def test_fast_is_within_tol_with_many_leaves_at_one_range(seed, n, r, tol):
     assert_within_tol(leaves, sonar, pose, tol)
 
 
-@given(st.floats(0.003, 0.01), st.integers(1, 120), st.floats(0.5, 9.5), st.booleans(),
+@given(st.floats(0.003, 0.05), st.integers(1, 300), st.floats(0.5, 9.5), st.booleans(),
        st.sampled_from([1e-9, 1e-11]))
 def test_fast_is_within_tol_for_a_kinked_leaf_with_a_tiny_live_part(radius, live, r, atm, tol):
     # One paper-model leaf near grazing incidence whose corner (cos(B(c) beta) turning
     # positive) lies in the band's top `live` bins: its live values are ~1e-4 of the factor's
     # scale, where the cosine's rounding is ~1e-12 of them. (Not at 1e-12: there the exact sum
-    # itself errs by up to ~1e-12 on such a leaf, measured against mpmath, and the two differ
-    # by up to 1.5e-12.)
+    # itself errs by up to ~1e-12 on such a leaf against mpmath: 3 mm, 82 live bins, with
+    # absorption: exact 1.24e-12, fast 6e-14, the two 1.3e-12 apart.)
     sonar = Sonar(beamwidth_deg=30.0, absorption=batecho.Atmosphere() if atm else None)
     pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
     probe = Leaves([[r, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [radius])

@@ -84,9 +84,11 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         } else {
             paper_batch::<false>(sonar, plan, lanes, grid, direct, &mut s)
         };
-        for (i, f) in failed.iter().enumerate().take(lanes.n) {
-            if *f {
+        for i in 0..lanes.n {
+            if failed.defer[i] {
                 part.deferred.push(lanes.term(i));
+            } else if failed.exact[i] {
+                part.exact.push(lanes.term(i));
             }
         }
         lanes.n = 0;
