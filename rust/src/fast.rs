@@ -1166,19 +1166,20 @@ pub(crate) fn add_grids(acc: &mut [f64], grids: Vec<Vec<f64>>) {
 /// to ~2e-16 of that scale, not of its own small value. Where the live part is small (a corner
 /// in the band's top bins, live values ~1e-4 of the scale) that is ~1e-12 of them, so the
 /// check is `|c_last| + KINK_FLOOR scale <= 2 tol live`, and a leaf whose floor alone takes
-/// half its budget (`KINK_FLOOR scale > tol live`) is summed exactly over the whole band (in
-/// sub-bands it would meet the same floor, and their exact sums round differently from the
-/// band's by ~1e-12 of such a leaf). Measured on
-/// 20,000 single leaves (radii 3-90 mm, incidence 0-1.5 rad, ranges 0.5-10 m) at
-/// `tol = 1e-12`: the worst error against the exact sum was 3.4 tol without this term and
-/// 0.24 tol with it (the same at 1e-15 ... 1e-14). It matters only near `tol = 1e-12`: at
-/// 1e-6 a leaf fails it only where its live part is under ~1e-8 of its scale. (The exact
-/// sum has the same floor, ~1e-12 of such a leaf against mpmath: see the README.)
+/// half its budget (`KINK_FLOOR scale > tol live`) is summed exactly: over the whole band
+/// when a first pass finds it (sub-bands would meet the same floor, and their exact sums round
+/// differently from the band's by ~1e-12 of such a leaf), over the sub-band when a sub-band
+/// does. Measured on 20,000 single leaves (radii 3-90 mm, incidence 0-1.5 rad, ranges
+/// 0.5-10 m) at `tol = 1e-12`: the worst error against the exact sum was 3.4 tol without this
+/// term and 0.24 tol with it (the same for 1e-15 ... 1e-14). It matters only near
+/// `tol = 1e-12`: at 1e-6 a leaf fails it only where its live part is under ~1e-8 of its
+/// scale. (The exact sum has the same floor, ~1e-12 of such a leaf against mpmath: see the
+/// README.)
 const KINK_FLOOR: f64 = 3e-15;
 
 /// The paper model's node values, phases and kernel weights for a batch of up to `LB` smooth
-/// or kinked leaves (lanes), then the spreading; returns which leaves failed the smoothness
-/// check (not spread: the caller defers them).
+/// or kinked leaves (lanes), then the spreading; returns the leaves it did not take
+/// ([`Failures`]: not spread, for the caller to defer or sum exactly).
 ///
 /// A kinked leaf's factor is `max(0, g)` with `g` smooth (the unclamped cosine), zero on the
 /// bins `0..m*` and `g` on `m*..M`. Where the zero side is the shorter, `g` is spread and its
