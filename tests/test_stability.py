@@ -184,3 +184,28 @@ def test_records_of_1e6_samples_match_mpmath_and_place_echoes_right():
     full[k0:k1 + 1] = echo.spectrum[0]
     np.testing.assert_allclose(echo.impulse[0], 2 * np.fft.irfft(full, sonar.n_samples),
                                atol=1e-15 * np.abs(echo.impulse).max())
+
+
+@pytest.mark.parametrize(("radius", "live", "r"), [(0.003, 82, 4.0), (0.0056, 8, 9.48),
+                                                   (0.01, 34, 1.0)])
+def test_a_kinked_leaf_with_a_tiny_live_part_matches_mpmath_to_the_cosines_floor(radius, live, r):
+    # Near grazing incidence with the corner (cos(B(c) beta) turning positive) in the band's
+    # top `live` bins, the live values are ~1e-4 of the factor's scale A(c); in f64, B(c) beta
+    # (the powers' 1-ulp rounding alone) moves the cosine by ~1e-12 of them. Both methods sit
+    # at that floor (measured for the exact sum: 1.7e-13, 2.7e-12 and 9.9e-13 for these three;
+    # fast at 1e-9: 2.5e-13, 2.5e-12, 2.1e-13); the fast method at tol=1e-12 sums the last two
+    # exactly.
+    sonar = Sonar(beamwidth_deg=30.0)
+    f = sonar.freqs
+    c = 2.0 * np.pi * f[len(f) - live] / sonar.sound_speed * radius
+    beta = (np.pi / 2) / (0.3999 * c**-0.9065 + 0.9979) + 1e-12
+    leaf = Leaves([[r, 0.0, 0.0]], [[np.cos(beta), np.sin(beta), 0.0]], [radius])
+    bins = np.arange(sonar.n_bins - live - 2, sonar.n_bins)
+    want = mp_terms(leaf, sonar, AXIS, bins)
+    assert abs(np.count_nonzero(want) - live) <= 1
+    exact = simulate(leaf, sonar, AXIS, method="exact").spectrum[0, bins]
+    assert rel_err(exact, want) <= 4e-12
+    assert rel_err(simulate(leaf, sonar, AXIS, method="fast", tol=1e-12).spectrum[0, bins],
+                   want) <= 4e-12
+    assert rel_err(simulate(leaf, sonar, AXIS, method="fast", tol=1e-9).spectrum[0, bins],
+                   want) <= 1e-9
