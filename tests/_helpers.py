@@ -24,3 +24,13 @@ def frame_points(pose: batecho.Poses, r, az, el) -> np.ndarray:
         + np.sin(el)[:, None] * pose.up[0]
     )
     return pose.positions[0] + r[:, None] * e
+
+
+def kinked_leaf_at_the_top(sonar: batecho.Sonar, radius: float, live: int,
+                           r: float) -> batecho.Leaves:
+    """One paper-model leaf on the x axis at range r whose corner (cos(B(c) beta) turning
+    positive) lies at band bin n_bins - live: near grazing incidence, live only in the band's
+    top `live` bins, where its values are ~1e-4 of the factor's scale A(c)."""
+    c = 2.0 * np.pi * sonar.freqs[sonar.n_bins - live] / sonar.sound_speed * radius
+    beta = (np.pi / 2) / (0.3999 * c**-0.9065 + 0.9979) + 1e-12
+    return batecho.Leaves([[r, 0.0, 0.0]], [[np.cos(beta), np.sin(beta), 0.0]], [radius])

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _helpers import frame_points, rel_err
+from _helpers import frame_points, kinked_leaf_at_the_top, rel_err
 from _strategies import cases
 from hypothesis import given
 from hypothesis import strategies as st
@@ -60,12 +60,7 @@ def test_fast_is_within_tol_for_a_kinked_leaf_with_a_tiny_live_part(radius, live
     # absorption: exact 1.24e-12, fast 6e-14, the two 1.3e-12 apart.)
     sonar = Sonar(beamwidth_deg=30.0, absorption=batecho.Atmosphere() if atm else None)
     pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
-    probe = Leaves([[r, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [radius])
-    f = simulate(probe, sonar, pose, method="exact").freqs
-    c = 2.0 * np.pi * f[len(f) - live] / sonar.sound_speed * radius
-    beta = (np.pi / 2) / (0.3999 * c**-0.9065 + 0.9979) + 1e-12
-    leaf = Leaves([[r, 0.0, 0.0]], [[np.cos(beta), np.sin(beta), 0.0]], [radius])
-    assert_within_tol(leaf, sonar, pose, tol)
+    assert_within_tol(kinked_leaf_at_the_top(sonar, radius, live, r), sonar, pose, tol)
 
 
 @pytest.mark.parametrize("tol", TOLS)

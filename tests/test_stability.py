@@ -14,7 +14,7 @@ import math
 import mpmath as mp
 import numpy as np
 import pytest
-from _helpers import frame_points, rel_err
+from _helpers import frame_points, kinked_leaf_at_the_top, rel_err
 
 from batecho import Leaves, Poses, Sonar, reference, simulate
 
@@ -196,10 +196,7 @@ def test_a_kinked_leaf_with_a_tiny_live_part_matches_mpmath_to_the_cosines_floor
     # fast at 1e-9: 2.5e-13, 2.5e-12, 2.1e-13); the fast method at tol=1e-12 sums the last two
     # exactly.
     sonar = Sonar(beamwidth_deg=30.0)
-    f = sonar.freqs
-    c = 2.0 * np.pi * f[len(f) - live] / sonar.sound_speed * radius
-    beta = (np.pi / 2) / (0.3999 * c**-0.9065 + 0.9979) + 1e-12
-    leaf = Leaves([[r, 0.0, 0.0]], [[np.cos(beta), np.sin(beta), 0.0]], [radius])
+    leaf = kinked_leaf_at_the_top(sonar, radius, live, r)
     bins = np.arange(sonar.n_bins - live - 2, sonar.n_bins)
     want = mp_terms(leaf, sonar, AXIS, bins)
     assert abs(np.count_nonzero(want) - live) <= 1
