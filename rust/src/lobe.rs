@@ -6,8 +6,8 @@
 use crate::error::{Error, Result};
 use crate::pose::{cross, dot, norm, sub, Pose, V3};
 use crate::scene::Scene;
-use crate::sonar::{LobeRule, Sonar, TooClose};
-use crate::vmath::{atan2_fast, exp_nonpos};
+use crate::sonar::{LeafModel, LobeRule, Sonar, TooClose};
+use crate::vmath::{atan2_from_ratio, atan2_ratio, exp_nonpos};
 use multiversion::multiversion;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -372,7 +372,8 @@ pub(crate) const CB: usize = 16;
 /// What the exact test says about each lane of a block of up to [`CB`] candidates.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BlockView {
-    /// Per lane: 0 out, 1 in, 2 within [`AMBIGUOUS`] of the reach (decide with [`classify`]).
+    /// Per lane: 0 out, 1 in, 2 within [`AMBIGUOUS`] of the reach or [`CONE_AMBIGUOUS`] of
+    /// the cone's edge (decide with [`classify`]).
     pub verdict: [u8; CB],
     pub gain: [f64; CB],
     pub beta: [f64; CB],
@@ -408,11 +409,13 @@ impl BlockView {
 }
 
 /// The vector part of the exact test for up to [`CB`] candidates `(index, range)` already
-/// within `[min_range, range_limit]`. Range, direction and the cone test use the same f64
-/// operations as [`classify`] (so they decide identically); azimuth, elevation, gain and
-/// incidence use the polynomial `atan2` and `exp` of [`crate::vmath`] (~4e-16). A lane whose
-/// range lies within [`AMBIGUOUS`] of its detectable reach is marked for [`classify`] (libm),
-/// so that every decision equals the scalar test's.
+/// within `[min_range, range_limit]`. The range is [`classify`]'s; azimuth, elevation, gain
+/// and incidence come from the unnormalised offset with the polynomial `atan2` and `exp` of
+/// [`crate::vmath`] (angles within ~6e-16 of libm's, gains ~1e-14 relative; physical optics'
+/// cos and sin of the incidence exactly as [`incidence`] forms them). A lane whose range lies
+/// within [`AMBIGUOUS`] of its detectable reach, or whose direction lies within
+/// [`CONE_AMBIGUOUS`] of the cone's edge, is marked for [`classify`] (libm), so that every
+/// decision equals the scalar test's.
 #[inline(always)]
 pub(crate) fn classify_block(
     scene: &Scene,
@@ -509,13 +512,58 @@ fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockVi
         ny,
         nz,
     } = g;
-    let (mut ex, mut ey, mut ez) = ([0.0; CB], [0.0; CB], [0.0; CB]);
-    let (mut ed, mut el_, mut eu) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+    // The angles are ratios of the offset's projections, so the offset is not normalised.
+    let (mut pd, mut pl, mut pu) = ([0.0; CB], [0.0; CB], [0.0; CB]);
     for k in 0..CB {
-        (ex[k], ey[k], ez[k]) = (dx[k] / r[k], dy[k] / r[k], dz[k] / r[k]);
-        ed[k] = ex[k] * d[0] + ey[k] * d[1] + ez[k] * d[2];
-        el_[k] = ex[k] * l[0] + ey[k] * l[1] + ez[k] * l[2];
-        eu[k] = ex[k] * u[0] + ey[k] * u[1] + ez[k] * u[2];
+        pd[k] = dx[k] * d[0] + dy[k] * d[1] + dz[k] * d[2];
+        pl[k] = dx[k] * l[0] + dy[k] * l[1] + dz[k] * l[2];
+        pu[k] = dx[k] * u[0] + dy[k] * u[1] + dz[k] * u[2];
+    }
+    // The incidence's sine and cosine, times r. Physical optics scales the echo by them, so
+    // for it they come from e = dx / r exactly as `incidence` computes them (a leaf that the
+    // reference finds exactly edge-on is edge-on here too); the paper model needs only beta.
+    let po = sp.leaf_model == LeafModel::PhysicalOptics;
+    let (mut sb, mut cb, mut hz) = ([0.0; CB], [0.0; CB], [0.0; CB]);
+    let normals = [nx, ny, nz];
+    if po {
+        let e = |k: usize| [dx[k] / r[k], dy[k] / r[k], dz[k] / r[k]];
+        incidence_lanes(e, normals, &mut sb, &mut cb);
+    } else {
+        incidence_lanes(|k| [dx[k], dy[k], dz[k]], normals, &mut sb, &mut cb);
+    }
+    for k in 0..CB {
+        hz[k] = (pd[k] * pd[k] + pl[k] * pl[k]).sqrt();
+    }
+    // The three atan2 ratios (azimuth, elevation, incidence) and 1/r (for cos and sin of
+    // the incidence and the cone test) from one division, of the product of the four
+    // denominators (a few ulps each, against 0.5 for four divisions). Each lies within
+    // [r / 2, 2 r] (unit normals), so the product neither overflows nor underflows for ranges
+    // in [1e-60, 1e60] m; a block outside divides them one by one.
+    let (mut t_az, mut t_el, mut t_b, mut inv_r) = ([0.0; CB], [0.0; CB], [0.0; CB], [0.0; CB]);
+    let mut one_division = true;
+    for k in 0..CB {
+        let (n1, d1) = atan2_ratio(pl[k], pd[k]);
+        let (n2, d2) = atan2_ratio(pu[k], hz[k]);
+        // (the incidence's ratio brought to the scale r where its terms are unit-scale)
+        let unit = if po { r[k] } else { 1.0 };
+        let (n3, d3) = atan2_ratio(sb[k], cb[k]);
+        let (n3, d3) = (n3 * unit, d3 * unit);
+        let (d12, d3r) = (d1 * d2, d3 * r[k]);
+        let prod = d12 * d3r;
+        one_division &= prod > 1e-250 && prod < 1e250;
+        let rcp = 1.0 / prod;
+        t_az[k] = n1 * (d2 * d3r) * rcp;
+        t_el[k] = n2 * (d1 * d3r) * rcp;
+        t_b[k] = n3 * (d12 * r[k]) * rcp;
+        inv_r[k] = (d12 * d3) * rcp;
+    }
+    if !one_division {
+        for k in 0..CB {
+            let ((n1, d1), (n2, d2)) = (atan2_ratio(pl[k], pd[k]), atan2_ratio(pu[k], hz[k]));
+            let (n3, d3) = atan2_ratio(sb[k], cb[k]);
+            (t_az[k], t_el[k], t_b[k]) = (n1 / d1, n2 / d2, n3 / d3);
+            inv_r[k] = 1.0 / r[k];
+        }
     }
     let mut v = BlockView {
         verdict: [0; CB],
@@ -526,22 +574,13 @@ fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockVi
     };
     let (mut az, mut el) = ([0.0; CB], [0.0; CB]);
     for k in 0..CB {
-        az[k] = atan2_fast(el_[k], ed[k]);
-    }
-    for k in 0..CB {
-        el[k] = atan2_fast(eu[k], (ed[k] * ed[k] + el_[k] * el_[k]).sqrt());
-    }
-    let (mut sb, mut cb) = ([0.0; CB], [0.0; CB]);
-    for k in 0..CB {
-        let cr = cross([ex[k], ey[k], ez[k]], [nx[k], ny[k], nz[k]]);
-        sb[k] = (cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]).sqrt();
-        cb[k] = ex[k] * nx[k] + ey[k] * ny[k] + ez[k] * nz[k];
-    }
-    for k in 0..CB {
-        let bt = atan2_fast(sb[k], cb[k]);
+        az[k] = atan2_from_ratio(pl[k], pd[k], t_az[k]);
+        el[k] = atan2_from_ratio(pu[k], hz[k], t_el[k]);
+        let bt = atan2_from_ratio(sb[k], cb[k], t_b[k]);
         v.beta[k] = bt.min(PI - bt);
-        v.cos_beta[k] = cb[k].abs().min(1.0);
-        v.sin_beta[k] = sb[k].min(1.0);
+        let to_unit = if po { 1.0 } else { inv_r[k] };
+        v.cos_beta[k] = (cb[k].abs() * to_unit).min(1.0);
+        v.sin_beta[k] = (sb[k] * to_unit).min(1.0);
     }
     let quad_lanes = |b: &crate::beam::GaussianBeam, q: &mut [f64; CB]| {
         for k in 0..CB {
@@ -575,25 +614,53 @@ fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockVi
         }
     }
     let rx_amp = sonar.receiver().amplitude;
+    let (lo, hi) = ((1.0 - AMBIGUOUS).powi(2), (1.0 + AMBIGUOUS).powi(2));
     for k in 0..n {
         let r = r[k];
-        if !detectable && ed[k] < sonar.cos_half_angle {
-            continue;
-        }
         let g = (sp.emitter.amplitude * s_tx[k]) * (rx_amp * s_rx[k]);
         v.gain[k] = g;
         v.verdict[k] = 1;
         if detectable {
-            let reach = (sonar.reach_sq_per_gain * g).sqrt();
-            if r > reach * (1.0 + AMBIGUOUS) {
+            // r against the reach sqrt(K g), squared
+            let reach_sq = sonar.reach_sq_per_gain * g;
+            if r * r > reach_sq * hi {
                 v.verdict[k] = 0;
-            } else if !(r <= reach * (1.0 - AMBIGUOUS)) {
+            } else if !(r * r <= reach_sq * lo) {
+                v.verdict[k] = 2;
+            }
+        } else {
+            // the cone: `classify` divides first (e = dx / r, then e.d); this product
+            // differs from it by a few ulps, so a lane that close to the edge is left to it
+            let ed = pd[k] * inv_r[k];
+            if ed < sonar.cos_half_angle - CONE_AMBIGUOUS {
+                v.verdict[k] = 0;
+            } else if !(ed > sonar.cos_half_angle + CONE_AMBIGUOUS) {
                 v.verdict[k] = 2;
             }
         }
     }
     v
 }
+
+/// `|e x n|` and `e . n` of each lane, with `e(k)` the lane's direction (any scale).
+#[inline(always)]
+fn incidence_lanes(
+    e: impl Fn(usize) -> V3,
+    [nx, ny, nz]: [&[f64; CB]; 3],
+    sb: &mut [f64; CB],
+    cb: &mut [f64; CB],
+) {
+    for k in 0..CB {
+        let e = e(k);
+        let cr = cross(e, [nx[k], ny[k], nz[k]]);
+        sb[k] = (cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]).sqrt();
+        cb[k] = e[0] * nx[k] + e[1] * ny[k] + e[2] * nz[k];
+    }
+}
+
+/// Absolute window around the cone's `cos(half_angle)` in which the fast decision defers to
+/// [`classify`] (the two cosines differ by a few ulps).
+const CONE_AMBIGUOUS: f64 = 1e-14;
 
 /// The libm decision for a leaf on the detectable boundary (see [`classify_block`]), exactly
 /// as the reference makes it.
@@ -714,4 +781,136 @@ pub fn members_of(
         out.extend(m);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::beam::GaussianBeam;
+    use crate::sonar::SonarParams;
+
+    /// Detectable and cone lobes, the paper model and physical optics, and an elliptical,
+    /// rotated, off-centre emitter with its own receiver.
+    fn sonars() -> Vec<Sonar> {
+        let mut out = Vec::new();
+        for model in [LeafModel::Paper, LeafModel::PhysicalOptics] {
+            for cone in [false, true] {
+                let mut p = SonarParams::with_beamwidth(40f64.to_radians()).unwrap();
+                p.leaf_model = model;
+                if cone {
+                    p.lobe = LobeRule::Cone {
+                        half_angle: 70f64.to_radians(),
+                    };
+                }
+                out.push(Sonar::new(p).unwrap());
+            }
+        }
+        let mut p = SonarParams::with_beamwidth(40f64.to_radians()).unwrap();
+        p.emitter = GaussianBeam::new(1.3, 0.4, 0.2, 0.7, 0.3, -0.2).unwrap();
+        p.receiver = Some(GaussianBeam::new(0.8, 0.3, 0.5, -0.4, -0.1, 0.1).unwrap());
+        out.push(Sonar::new(p).unwrap());
+        out
+    }
+
+    /// A block of lanes: directions within 100 degrees of `forward`, ranges 5 cm - 12 m
+    /// (log-uniform) times `scale`, random unit normals (some exactly edge-on or facing).
+    fn block(u: &mut impl FnMut() -> f64, pose: &Pose, scale: f64) -> Gathered {
+        let mut g = Gathered::default();
+        for k in 0..CB {
+            let (th, ph) = (100f64.to_radians() * u(), 2.0 * PI * u());
+            let (st, ct) = th.sin_cos();
+            let e: V3 = std::array::from_fn(|i| {
+                ct * pose.forward[i] + st * (ph.cos() * pose.left[i] + ph.sin() * pose.up[i])
+            });
+            let r = 0.05 * 240f64.powf(u()) * scale;
+            // the offset from a centre, as the gather computes it
+            let c: V3 = std::array::from_fn(|i| pose.position[i] + e[i] * r);
+            let p = pose.position;
+            (g.dx[k], g.dy[k], g.dz[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
+            g.r[k] = (g.dx[k] * g.dx[k] + g.dy[k] * g.dy[k] + g.dz[k] * g.dz[k]).sqrt();
+            let (z, q) = (2.0 * u() - 1.0, 2.0 * PI * u());
+            let s = (1.0 - z * z).sqrt();
+            let n = match k % 8 {
+                0 => pose.up,
+                1 => e,
+                _ => [s * q.cos(), s * q.sin(), z],
+            };
+            (g.nx[k], g.ny[k], g.nz[k]) = (n[0], n[1], n[2]);
+        }
+        g
+    }
+
+    #[test]
+    fn block_views_match_the_libm_test_to_a_few_ulps() {
+        let mut u = crate::test_util::uniforms(5);
+        let pose = Pose::new([0.5, -1.0, 2.0], [1.0, 0.3, -0.2], [0.1, 0.0, 1.0]).unwrap();
+        let (mut worst_angle, mut worst_gain, mut decided) = (0.0f64, 0.0f64, 0);
+        for s in sonars() {
+            for _ in 0..400 {
+                let g = block(&mut u, &pose, 1.0);
+                let v = classify_lanes(&s, &pose, &g, CB);
+                for k in 0..CB {
+                    if !(g.r[k] >= s.params.min_range && g.r[k] <= s.range_limit) {
+                        continue; // (the range test precedes the lanes)
+                    }
+                    let d = [g.dx[k], g.dy[k], g.dz[k]];
+                    // (exact: the offsets are differences of centres near the pose)
+                    let centre = std::array::from_fn(|i| pose.position[i] + d[i]);
+                    let view = match classify(&s, &pose, centre) {
+                        Decision::In(view) => view,
+                        _ => {
+                            assert_ne!(v.verdict[k], 1, "lane {k} counts; libm says it does not");
+                            continue;
+                        }
+                    };
+                    assert_ne!(v.verdict[k], 0, "lane {k} is out; libm says it counts");
+                    if v.verdict[k] == 2 {
+                        continue;
+                    }
+                    decided += 1;
+                    let (beta, cos_b, sin_b) = incidence(view.dir, [g.nx[k], g.ny[k], g.nz[k]]);
+                    for (a, b) in [
+                        (v.beta[k], beta),
+                        (v.cos_beta[k], cos_b),
+                        (v.sin_beta[k], sin_b),
+                    ] {
+                        worst_angle = worst_angle.max((a - b).abs());
+                    }
+                    worst_gain = worst_gain.max((v.gain[k] - view.gain).abs() / view.gain);
+                }
+            }
+        }
+        assert!(decided > 10_000, "{decided}");
+        // (measured: 5.6e-16 and 7.2e-15)
+        assert!(
+            worst_angle <= 1e-15,
+            "beta, cos, sin off by {worst_angle:e}"
+        );
+        assert!(worst_gain <= 1e-13, "gain off by {worst_gain:e} (relative)");
+    }
+
+    #[test]
+    fn block_views_do_not_depend_on_the_scale_of_the_offsets() {
+        // ranges near 1e-80 or 1e80 m: the product of the four denominators would underflow or
+        // overflow, and the block divides them one by one
+        let pose = Pose::new([0.0; 3], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+        for s in sonars() {
+            let mut u = crate::test_util::uniforms(9);
+            let one = block(&mut u, &pose, 1.0);
+            let v1 = classify_lanes(&s, &pose, &one, CB);
+            for scale in [1e-80, 1e80] {
+                let mut u = crate::test_util::uniforms(9);
+                let v = classify_lanes(&s, &pose, &block(&mut u, &pose, scale), CB);
+                for k in 0..CB {
+                    assert!(
+                        (v.beta[k] - v1.beta[k]).abs() <= 1e-15,
+                        "{scale:e} lane {k}"
+                    );
+                    assert!((v.cos_beta[k] - v1.cos_beta[k]).abs() <= 1e-15);
+                    assert!((v.sin_beta[k] - v1.sin_beta[k]).abs() <= 1e-15);
+                    assert!((v.gain[k] - v1.gain[k]).abs() <= 1e-14 * v1.gain[k].max(1e-300));
+                }
+            }
+        }
+    }
 }

@@ -142,7 +142,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
                     paper_route(sonar, regime, bl.ap[k], bl.beta[k])
                 }
                 _ => {
-                    // on the detectable boundary: the libm decision
+                    // on the lobe's boundary: the libm decision
                     let Some(mb) = classify_member(scene, sonar, pose, i) else {
                         continue;
                     };

@@ -225,19 +225,42 @@ pub fn erf_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> [f64; L] 
 /// 4e-16; `atan2(0, 0) = 0`.
 #[inline(always)]
 pub fn atan2_fast(y: f64, x: f64) -> f64 {
-    const TAN_PI_8: f64 = 0.414_213_562_373_095_03;
-    const PIO4: f64 = std::f64::consts::FRAC_PI_4;
+    let (tn, td) = atan2_ratio(y, x);
+    atan2_from_ratio(y, x, tn / td)
+}
+
+/// `tan(pi/8)`: where [`atan2_fast`]'s reduction switches to `(t - 1)/(t + 1)`.
+const TAN_PI_8: f64 = 0.414_213_562_373_095_03;
+
+/// The reduced ratio `t' = num / den` of [`atan2_fast`] as `(num, den)`, with `den > 0`
+/// (`(0, 1)` at the origin): a caller may divide several at once.
+#[inline(always)]
+pub fn atan2_ratio(y: f64, x: f64) -> (f64, f64) {
     let (ax, ay) = (x.abs(), y.abs());
     let swap = ay > ax;
     let (num, den) = if swap { (ax, ay) } else { (ay, ax) };
-    // t = num / den; past tan(pi/8), (t - 1)/(t + 1) = (num - den)/(num + den): one division
+    // t = num / den; past tan(pi/8), (t - 1)/(t + 1) = (num - den)/(num + den)
     let big = num > TAN_PI_8 * den;
     let (tn, td) = if big {
         (num - den, num + den)
     } else {
         (num, den)
     };
-    let tr = if td > 0.0 { tn / td } else { 0.0 };
+    if td > 0.0 {
+        (tn, td)
+    } else {
+        (0.0, 1.0)
+    }
+}
+
+/// [`atan2_fast`] from its reduced ratio `tr` ([`atan2_ratio`]'s quotient).
+#[inline(always)]
+pub fn atan2_from_ratio(y: f64, x: f64, tr: f64) -> f64 {
+    const PIO4: f64 = std::f64::consts::FRAC_PI_4;
+    let (ax, ay) = (x.abs(), y.abs());
+    let swap = ay > ax;
+    let (num, den) = if swap { (ax, ay) } else { (ay, ax) };
+    let big = num > TAN_PI_8 * den;
     let u = tr * tr;
     const C: [f64; 12] = [
         1.0,
