@@ -224,7 +224,7 @@ pub fn fast_pulse(
             plan
         };
     let parts: Vec<Part> = cands
-        .par_chunks(chunk_len(cands.len()))
+        .par_chunks(chunk_len(cands.len(), first.nufft.nf))
         .map(|c| pulse_chunk(scene, sonar, pose, first, c))
         .collect();
     if sonar.params.too_close == TooClose::Error {
@@ -396,7 +396,7 @@ mod tests {
         let s = &sonars()[2];
         let plan = FastPlan::new(s, 1e-6).unwrap();
         let cands = candidates(&sc, s, &pose, Search::Bvh);
-        assert!(cands.len() > 2 * chunk_len(cands.len()));
+        assert!(cands.len() > 2 * chunk_len(cands.len(), plan.nufft.nf));
         let a = fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)

@@ -177,7 +177,7 @@ fn band_sum(
         &plan,
         terms,
         floors,
-        chunk_len(terms.len()),
+        chunk_len(terms.len(), plan.nufft.nf),
     ))
 }
 
