@@ -41,7 +41,9 @@ use crate::phase::CyclesPerBin;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar};
 use crate::spectrum::{leaf_term, sum_terms, LeafTerm};
-use crate::vmath::{cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, exp_nonpos_d, sincos_unit_k};
+use crate::vmath::{
+    cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, erf_exp_cheb_lanes, exp_nonpos_d, sincos_unit_k,
+};
 use multiversion::multiversion;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
@@ -632,19 +634,12 @@ fn erf_at_nodes<const N: usize, const K: usize>(
         }
         return;
     }
-    let e0 = erf_cheb_lanes::<N, LB>(&zc);
+    let (e0, ex) = erf_exp_cheb_lanes::<N, LB>(&zc);
     // c_(n+1) = E g_n / (n + 1), E = (2/sqrt(pi)) exp(-z_c^2)
     const { assert!(K <= MAX_NODES) };
     let (mut g0, mut g1) = ([1.0f64; LB], [0.0f64; LB]);
     for i in 0..LB {
-        let ex = if N >= 40 {
-            exp_nonpos_d::<13>(-(zc[i] * zc[i]))
-        } else if N > 22 {
-            exp_nonpos_d::<10>(-(zc[i] * zc[i]))
-        } else {
-            exp_nonpos_d::<8>(-(zc[i] * zc[i]))
-        };
-        let e = std::f64::consts::FRAC_2_SQRT_PI * ex;
+        let e = std::f64::consts::FRAC_2_SQRT_PI * ex[i];
         g1[i] = -2.0 * zc[i];
         c[0][i] = e;
         c[1][i] = e * g1[i] * 0.5;

@@ -185,6 +185,13 @@ pub fn erf_cheb_n<const N: usize>(z: f64) -> f64 {
 /// absolute error < 1e-9.
 #[inline(always)]
 pub fn erf_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> [f64; L] {
+    erf_exp_cheb_lanes::<N, L>(z).0
+}
+
+/// [`erf_cheb_lanes`] and the `exp(-z^2)` it uses (the same polynomial exp, of the unclamped
+/// `z`; past |z| = 6, where the erf is 1, it is not used for the erf).
+#[inline(always)]
+pub fn erf_exp_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> ([f64; L], [f64; L]) {
     let mut t = [0.0; L];
     let mut b1 = [0.0; L];
     let mut b2 = [0.0; L];
@@ -198,22 +205,22 @@ pub fn erf_cheb_lanes<const N: usize, const L: usize>(z: &[f64; L]) -> [f64; L] 
             b1[j] = b0;
         }
     }
-    let mut out = [0.0; L];
+    let (mut out, mut exps) = ([0.0; L], [0.0; L]);
     for j in 0..L {
-        let a = z[j].abs().min(6.0);
         let erfcx = t[j].mul_add(b1[j], ERFCX_CHEB[0] - b2[j]);
         let ex = if N >= 40 {
-            exp_nonpos_d::<13>(-(a * a))
+            exp_nonpos_d::<13>(-(z[j] * z[j]))
         } else if N > 22 {
-            exp_nonpos_d::<10>(-(a * a))
+            exp_nonpos_d::<10>(-(z[j] * z[j]))
         } else {
-            exp_nonpos_d::<8>(-(a * a))
+            exp_nonpos_d::<8>(-(z[j] * z[j]))
         };
+        exps[j] = ex;
         let e = 1.0 - ex * erfcx;
         let e = if z[j].abs() >= 6.0 { 1.0 } else { e };
         out[j] = e.copysign(z[j]);
     }
-    out
+    (out, exps)
 }
 
 /// `atan2(y, x)` for finite arguments, branch-free (selects only): reduction to
