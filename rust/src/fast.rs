@@ -1917,7 +1917,10 @@ mod tests {
                 assert!(tasks >= 4 || c == 4096, "{n} {nf}: {tasks}");
                 // past 16 tasks' worth, at least ten leaves per grid point (or the cap)
                 if n >= 4 * LEAVES_PER_GRID_POINT * nf && tasks < 16 {
-                    assert!(c >= LEAVES_PER_GRID_POINT * nf || c == FAST_CHUNK, "{n} {nf}");
+                    assert!(
+                        c >= LEAVES_PER_GRID_POINT * nf || c == FAST_CHUNK,
+                        "{n} {nf}"
+                    );
                 }
             }
         }

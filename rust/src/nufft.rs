@@ -52,10 +52,13 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 /// The ES kernel as piecewise polynomials. A point at grid coordinate `xs` has its first grid
 /// point at `l0 = ceil(xs - w/2)`, and `u = l0 - (xs - w/2)` in [0, 1); grid point `l0 + j`
 /// gets the weight `phi((j + u - w/2) 2 / w)`. For each `j` that is a smooth function of `u`,
-/// interpolated at `w + 4` Chebyshev nodes (degree `w + 3`, as FINUFFT uses for sigma = 2) and
-/// stored as monomial coefficients in `u`: `coef[d][j]`.
+/// interpolated at `w + 2` Chebyshev nodes (degree `w + 1`) and stored as monomial
+/// coefficients in `u`: `coef[d][j]`. (The single-point worst error of a type-1 transform at
+/// 1201 modes is the same to three digits as with FINUFFT's degree `w + 3` for w = 4 ... 13,
+/// e.g. 1.07e-7 at w = 8: the kernel's own truncation dominates; degree `w - 1` adds 40% at
+/// w = 4. Two Horner steps fewer per leaf.)
 fn kernel_polynomials(w: usize, beta: f64) -> Vec<[f64; MAX_W]> {
-    let deg = w + 3;
+    let deg = w + 1;
     let n = deg + 1;
     // Chebyshev nodes on [0, 1]
     let us: Vec<f64> = (0..n)
