@@ -536,9 +536,11 @@ fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockVi
     }
     // The three atan2 ratios (azimuth, elevation, incidence) and 1/r (for cos and sin of
     // the incidence and the cone test) from one division, of the product of the four
-    // denominators (a few ulps each, against 0.5 for four divisions). Each lies within
-    // [r / 2, 2 r] (unit normals), so the product neither overflows nor underflows for ranges
-    // in [1e-60, 1e60] m; a block outside divides them one by one.
+    // denominators (a few ulps each, against 0.5 for four divisions). The elevation's and
+    // the incidence's lie within [r / 2, 2 r] (unit normals); the azimuth's within [0, 2 r]
+    // (1 where it is 0: a leaf straight above or below). A block whose product leaves
+    // [1e-250, 1e250] (a range outside [1e-60, 1e60] m, or an azimuth denominator below
+    // ~1e-250 / r^3) divides them one by one.
     let (mut t_az, mut t_el, mut t_b, mut inv_r) = ([0.0; CB], [0.0; CB], [0.0; CB], [0.0; CB]);
     let mut one_division = true;
     for k in 0..CB {
