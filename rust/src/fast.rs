@@ -1545,10 +1545,8 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
             let (left, (mut re, mut im)) = rayon::join(
                 || leftover_pass(sonar, plan, &retry, &exact),
                 || {
-                    let Spread { grid, sums, .. } = first;
-                    let out = finish_grid(sonar, &smaller, &grid, (sums.re, sums.im));
-                    give_grid(grid);
-                    out
+                    let Spread { grids, sums, .. } = first;
+                    finish_grids(sonar, &smaller, grids, (sums.re, sums.im))
                 },
             );
             if let Some((lr, li)) = left {
@@ -1581,7 +1579,7 @@ pub(crate) fn fast_sum_fixed(
     chunk: usize,
 ) -> (Vec<f64>, Vec<f64>) {
     let Spread {
-        grid,
+        grids,
         mut sums,
         deferred,
         exact,
@@ -1592,15 +1590,14 @@ pub(crate) fn fast_sum_fixed(
     all.sort_unstable();
     let rest: Vec<LeafTerm> = all.iter().map(|&i| terms[i]).collect();
     sums.add_exact(sonar, &rest);
-    let out = finish_grid(sonar, plan, &grid, (sums.re, sums.im));
-    give_grid(grid);
-    out
+    finish_grids(sonar, plan, grids, (sums.re, sums.im))
 }
 
 /// The spreading of one fast pass: the tasks' grids summed, the terms they added bin by bin,
 /// and the leaves they left, as ascending indices into the terms.
 pub(crate) struct Spread {
-    grid: Vec<f64>,
+    /// The tasks' grids, in order (their sum is the pass's grid).
+    grids: Vec<Vec<f64>>,
     sums: Direct,
     /// Leaves the interpolation cannot represent (for a later pass).
     pub(crate) deferred: Vec<usize>,
@@ -1618,13 +1615,26 @@ pub(crate) fn spread_pass(
     chunk: usize,
 ) -> Spread {
     let m = sonar.n_bins();
-    let (p, glen) = (plan.p, plan.nufft.grid_len());
-    let mut grid = take_grid(2 * p * glen);
+    if terms.len() <= chunk {
+        // One task: its grid and sums are the pass's (adding them to zeros changes nothing).
+        let part = spread_chunk(sonar, plan, terms, floors);
+        return Spread {
+            grids: vec![part.grid],
+            sums: part.direct,
+            deferred: part.deferred,
+            exact: part.exact,
+        };
+    }
+    let mut grids: Vec<Vec<f64>> = Vec::new();
     let mut sums = Direct::new(m);
     let (mut deferred, mut exact): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
     let mut offset = 0usize;
     let mut add = |parts: Vec<(Partial, usize)>| {
-        let mut grids = Vec::with_capacity(parts.len());
+        if grids.len() > 1 {
+            // (a later batch: the earlier ones summed into the first grid, in order)
+            let mut rest = grids.split_off(1);
+            add_grids(&mut grids[0], std::mem::take(&mut rest));
+        }
         for (part, len) in parts {
             deferred.extend(part.deferred.iter().map(|&i| i + offset));
             exact.extend(part.exact.iter().map(|&i| i + offset));
@@ -1632,59 +1642,61 @@ pub(crate) fn spread_pass(
             offset += len;
             grids.push(part.grid);
         }
-        add_grids(&mut grid, grids);
     };
-    if terms.len() <= chunk {
-        add(vec![(
-            spread_chunk(sonar, plan, terms, floors),
-            terms.len(),
-        )]);
-    } else {
-        // (16 grids at a time at most: memory stays bounded for long records)
-        for (b, batch) in terms.chunks(chunk * 16).enumerate() {
-            let parts: Vec<(Partial, usize)> = batch
-                .par_chunks(chunk)
-                .enumerate()
-                .map(|(k, c)| {
-                    let start = b * chunk * 16 + k * chunk;
-                    let f = floors.get(start..start + c.len()).unwrap_or(&[]);
-                    (spread_chunk(sonar, plan, c, f), c.len())
-                })
-                .collect();
-            add(parts);
-        }
+    // (16 grids at a time at most: memory stays bounded for long records)
+    for (b, batch) in terms.chunks(chunk * 16).enumerate() {
+        let parts: Vec<(Partial, usize)> = batch
+            .par_chunks(chunk)
+            .enumerate()
+            .map(|(k, c)| {
+                let start = b * chunk * 16 + k * chunk;
+                let f = floors.get(start..start + c.len()).unwrap_or(&[]);
+                (spread_chunk(sonar, plan, c, f), c.len())
+            })
+            .collect();
+        add(parts);
     }
     Spread {
-        grid,
+        grids,
         sums,
         deferred,
         exact,
     }
 }
 
-/// The windowed band spectrum from spread grids (one NUFFT per channel, then the Lagrange
-/// combination) plus the unwindowed exactly summed part `direct`.
-pub(crate) fn finish_grid(
+/// The windowed band spectrum from the tasks' spread grids (their sum, one NUFFT per
+/// channel, then the Lagrange combination) plus the unwindowed exactly summed part `direct`.
+/// The grids are summed in their order at every value (so the sums do not depend on the
+/// thread count) while each channel is copied for its transform, and go back to the pool.
+pub(crate) fn finish_grids(
     sonar: &Sonar,
     plan: &FastPlan,
-    grid: &[f64],
+    grids: Vec<Vec<f64>>,
     direct: (Vec<f64>, Vec<f64>),
 ) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     // One NUFFT per channel, then the Lagrange combination.
-    let modes: Vec<Vec<Complex64>> = grid
-        .par_chunks(2 * glen)
-        .map(|g| {
-            let mut cg: Vec<Complex64> = g
+    let modes: Vec<Vec<Complex64>> = (0..p)
+        .into_par_iter()
+        .map(|c| {
+            let span = 2 * c * glen..2 * (c + 1) * glen;
+            let mut cg: Vec<Complex64> = grids[0][span.clone()]
                 .chunks_exact(2)
                 .map(|v| Complex64::new(v[0], v[1]))
                 .collect();
+            for g in &grids[1..] {
+                for (z, v) in cg.iter_mut().zip(g[span.clone()].chunks_exact(2)) {
+                    z.re += v[0];
+                    z.im += v[1];
+                }
+            }
             let mut out = vec![Complex64::new(0.0, 0.0); m];
             plan.nufft.finish(&mut cg, &mut out);
             out
         })
         .collect();
+    grids.into_iter().for_each(give_grid);
     let mut re = vec![0.0; m];
     let mut im = vec![0.0; m];
     for j in 0..m {

@@ -15,9 +15,9 @@
 
 use crate::error::{Error, Result};
 use crate::fast::{
-    add_grids, choose_nodes_from, chunk_len, finish_grid, give_grid, leftover_pass, paper_batch,
-    paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
-    ADAPT_MIN_LEAVES, LB, NOT_KINKED,
+    choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch, paper_route, po_leaf,
+    take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute, ADAPT_MIN_LEAVES, LB,
+    NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
@@ -258,16 +258,15 @@ pub fn fast_pulse(
         || leftover_pass(sonar, plan, &deferred, &exact),
         || {
             let mut parts = parts.into_iter();
-            let mut acc = parts.next().expect("one part at least");
-            let mut grids = Vec::with_capacity(parts.len());
+            let first_part = parts.next().expect("one part at least");
+            let mut direct = first_part.direct;
+            let mut grids = Vec::with_capacity(parts.len() + 1);
+            grids.push(first_part.grid);
             for part in parts {
-                acc.direct.add(&part.direct);
+                direct.add(&part.direct);
                 grids.push(part.grid);
             }
-            add_grids(&mut acc.grid, grids);
-            let out = finish_grid(sonar, first, &acc.grid, (acc.direct.re, acc.direct.im));
-            give_grid(acc.grid);
-            out
+            finish_grids(sonar, first, grids, (direct.re, direct.im))
         },
     );
     if let Some((lr, li)) = left {

@@ -16,8 +16,8 @@
 //! leaf's check there is against its peak over the whole band ([`top_bin_magnitude`]), so the
 //! error bound is the full band's.
 //!
-//! Determinism: the leaves are sorted stably by first live bin, each sub-band takes a prefix
-//! of them, and the sub-bands are added into the band in order.
+//! Determinism: each sub-band takes the leaves live in it in the callers' order, and the
+//! sub-bands are added into the band in order.
 
 use crate::error::Result;
 use crate::fast::{choose_nodes_from, chunk_len, fast_sum_fixed, kink_bin, K_FACTOR_TOL};
@@ -101,16 +101,19 @@ impl SubBands {
         leaves: &[LeafTerm],
     ) -> Result<(Vec<f64>, Vec<f64>)> {
         let m = sonar.n_bins();
-        // By first live bin (stable): a sub-band's leaves, those live somewhere in it, are
-        // then a prefix.
-        let (terms, floors, live_from) = by_first_live_bin(sonar, tol, leaves);
-        let p = self.node_count(tol, &terms)?;
+        // The leaves' first live bins and floors, beside the node count.
+        let (keys, p) = rayon::join(
+            || kinks_and_floors_par(sonar, tol, leaves),
+            || self.node_count(tol, leaves),
+        );
+        let p = p?;
         let parts: Vec<Result<(Vec<f64>, Vec<f64>)>> = self
             .bands
             .par_iter()
             .map(|(lo, sub)| {
-                let n = live_from.partition_point(|&mk| mk < lo + sub.n_bins());
-                band_sum(sub, tol, p, &terms[..n], &floors[..n])
+                // a sub-band's leaves: those live somewhere in it, in the callers' order
+                let (terms, floors) = live_in(leaves, &keys, lo + sub.n_bins());
+                band_sum(sub, tol, p, &terms, &floors)
             })
             .collect();
         let (mut re, mut im) = (vec![0.0; m], vec![0.0; m]);
@@ -125,23 +128,27 @@ impl SubBands {
     }
 }
 
-/// The leaves sorted by first live bin (stably), with their error floors
-/// ([`top_bin_magnitude`]) and first live bins.
-fn by_first_live_bin(
-    sonar: &Sonar,
-    tol: f64,
-    leaves: &[LeafTerm],
-) -> (Vec<LeafTerm>, Vec<f64>, Vec<usize>) {
-    let keys: Vec<(usize, f64)> = leaves
-        .par_chunks(1024)
+/// Leaves per task of [`kinks_and_floors_par`].
+const KEY_CHUNK: usize = 128;
+
+/// The first live bin and error floor ([`top_bin_magnitude`]) of each leaf, in tasks of
+/// [`KEY_CHUNK`].
+fn kinks_and_floors_par(sonar: &Sonar, tol: f64, leaves: &[LeafTerm]) -> Vec<(usize, f64)> {
+    leaves
+        .par_chunks(KEY_CHUNK)
         .flat_map_iter(|c| kinks_and_floors(sonar, tol, c))
-        .collect();
-    let mut order: Vec<u32> = (0..leaves.len() as u32).collect();
-    order.sort_by_key(|&i| keys[i as usize].0);
-    let terms = order.iter().map(|&i| leaves[i as usize]).collect();
-    let floors = order.iter().map(|&i| keys[i as usize].1).collect();
-    let live_from = order.iter().map(|&i| keys[i as usize].0).collect();
-    (terms, floors, live_from)
+        .collect()
+}
+
+/// The leaves live before band bin `end` (first live bin below it), in order, with their
+/// floors.
+fn live_in(leaves: &[LeafTerm], keys: &[(usize, f64)], end: usize) -> (Vec<LeafTerm>, Vec<f64>) {
+    leaves
+        .iter()
+        .zip(keys)
+        .filter(|(_, &(mk, _))| mk < end)
+        .map(|(t, &(_, floor))| (*t, floor))
+        .unzip()
 }
 
 /// First live bin and error floor of each leaf.
@@ -320,7 +327,11 @@ mod tests {
     fn with_their_floors_few_kinked_leaves_fall_to_the_exact_sum_in_a_sub_band() {
         let s = sonar(None, Window::Hann);
         let subs = s.sub_bands().unwrap();
-        let (terms, floors, _) = by_first_live_bin(&s, 1e-6, &kinked(&s, 3000, 5));
+        let terms = kinked(&s, 3000, 5);
+        let floors: Vec<f64> = kinks_and_floors_par(&s, 1e-6, &terms)
+            .iter()
+            .map(|k| k.1)
+            .collect();
         let p = subs.node_count(1e-6, &terms).unwrap();
         assert!(p <= 5, "{p}");
         let n = terms.len();
