@@ -41,6 +41,7 @@ use crate::phase::CyclesPerBin;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar};
 use crate::spectrum::{leaf_term, sum_terms, LeafTerm};
+use crate::subband::KinkedLeaf;
 use crate::vmath::{
     cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, erf_exp_cheb_lanes, exp_nonpos_d, sincos_unit_k,
 };
@@ -391,11 +392,27 @@ struct Partial {
     grid: Vec<f64>,
     /// Terms added straight to band bins (kinked leaves' sides).
     direct: Direct,
-    /// Leaves (indices into the chunk, ascending) the interpolation cannot represent to tol.
+    /// Leaves (indices into the chunk, ascending) the interpolation cannot represent to tol,
+    /// but kinked paper-model ones, which go to `kinked` (in order).
     deferred: Vec<usize>,
+    kinked: Vec<KinkedLeaf>,
     /// Leaves (indices into the chunk, ascending) routed to the exact sum: outside the paper
     /// model's domain.
     exact: Vec<usize>,
+}
+
+impl Partial {
+    /// Defer lane `k` of a batch (leaf `id` of the chunk): a kinked one with its first live
+    /// bin and floor for the sub-bands.
+    #[inline(always)]
+    fn defer(&mut self, sonar: &Sonar, plan: &FastPlan, lanes: &PaperLanes, k: usize, id: usize) {
+        match lanes.kink[k] {
+            NOT_KINKED => self.deferred.push(id),
+            mk => self
+                .kinked
+                .push(KinkedLeaf::new(sonar, plan.tol, lanes.term(k), mk)),
+        }
+    }
 }
 
 /// The most lanes that add nothing in a block of leaves batched whole: each costs a lane of
@@ -1347,6 +1364,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f6
         grid: take_grid(2 * p * glen),
         direct: Direct::new(sonar.n_bins()),
         deferred: Vec::new(),
+        kinked: Vec::new(),
         exact: Vec::new(),
     };
     match sonar.params.leaf_model {
@@ -1369,7 +1387,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f6
                 };
                 for (k, &id) in ids[..lanes.n].iter().enumerate() {
                     if failed.defer[k] {
-                        part.deferred.push(id);
+                        part.defer(sonar, plan, lanes, k, id);
                     } else if failed.exact[k] {
                         part.exact.push(id);
                     }
@@ -1453,32 +1471,33 @@ pub(crate) fn second_pass(
 /// Fewer failures than this are summed exactly rather than given a second fast pass.
 const SECOND_PASS_MIN: usize = 256;
 
-/// The leaves a first fast pass left, as a windowed band spectrum (None for none): of the
-/// failures (`retry`), kinked paper-model leaves by sub-bands ([`crate::subband`], where the
-/// band has them) and the others by a second pass at the plan's full node count; the
-/// exact-routed leaves (`exact`: outside the model's domain, or below a kinked leaf's
+/// The leaves a first fast pass left, as a windowed band spectrum (None for none): of its
+/// failures, the kinked paper-model ones (`kinked`) by sub-bands ([`crate::subband`], where
+/// the band has them) and the others (`retry`) by a second pass at the plan's full node count;
+/// the exact-routed leaves (`exact`: outside the model's domain, or below a kinked leaf's
 /// rounding floor) by the exact sum. The three run side by side and are added in that order.
 pub(crate) fn leftover_pass(
     sonar: &Sonar,
     plan: &FastPlan,
     retry: &[LeafTerm],
+    kinked: &[KinkedLeaf],
     exact: &[LeafTerm],
 ) -> Option<(Vec<f64>, Vec<f64>)> {
-    if retry.is_empty() && exact.is_empty() {
+    if retry.is_empty() && kinked.is_empty() && exact.is_empty() {
         return None;
     }
     let subs = match sonar.params.leaf_model {
         LeafModel::Paper => sonar.sub_bands(),
         LeafModel::PhysicalOptics => None,
     };
-    let (mut kinked, mut retry2, mut exact2) = (Vec::new(), Vec::new(), exact.to_vec());
-    for t in retry {
-        if subs.is_some() && paper_regime(&sonar.tables, t) == PaperRegime::Kinked {
-            kinked.push(*t);
-        } else {
-            retry2.push(*t);
-        }
-    }
+    let (mut retry2, mut exact2) = (retry.to_vec(), exact.to_vec());
+    let kinked = if subs.is_some() {
+        kinked
+    } else {
+        // (no sub-bands: kinked leaves take the second pass too)
+        retry2.extend(kinked.iter().map(|k| k.term));
+        &[]
+    };
     if retry2.len() < SECOND_PASS_MIN {
         // (a second pass costs its grids and transforms: a few hundred exact leaves)
         exact2.append(&mut retry2);
@@ -1491,10 +1510,10 @@ pub(crate) fn leftover_pass(
                     let s = subs.as_ref().filter(|_| !kinked.is_empty())?;
                     // (a sub-band plan cannot fail where the band's did; if one did, the
                     // exact sum stands in)
-                    Some(
-                        s.kinked_sum(sonar, plan.tol, &kinked)
-                            .unwrap_or_else(|_| sum_terms(sonar, &kinked)),
-                    )
+                    Some(s.kinked_sum(sonar, plan.tol, kinked).unwrap_or_else(|_| {
+                        let terms: Vec<LeafTerm> = kinked.iter().map(|k| k.term).collect();
+                        sum_terms(sonar, &terms)
+                    }))
                 },
             )
         },
@@ -1543,9 +1562,9 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
             let retry: Vec<LeafTerm> = first.deferred.iter().map(|&i| terms[i]).collect();
             let exact: Vec<LeafTerm> = first.exact.iter().map(|&i| terms[i]).collect();
             let (left, (mut re, mut im)) = rayon::join(
-                || leftover_pass(sonar, plan, &retry, &exact),
+                || leftover_pass(sonar, plan, &retry, &first.kinked, &exact),
                 || {
-                    let Spread { grids, sums, .. } = first;
+                    let (grids, sums) = (first.grids, first.sums);
                     finish_grids(sonar, &smaller, grids, (sums.re, sums.im))
                 },
             );
@@ -1582,13 +1601,18 @@ pub(crate) fn fast_sum_fixed(
         grids,
         mut sums,
         deferred,
+        kinked,
         exact,
     } = spread_pass(sonar, plan, terms, floors, chunk);
-    // (the exact path's fixed parallel chunks, in ascending order; the window is applied
-    // below, once, to both)
+    // (the exact path's fixed parallel chunks, in ascending order, the kinked failures after
+    // them; the window is applied below, once, to both)
     let mut all: Vec<usize> = deferred.into_iter().chain(exact).collect();
     all.sort_unstable();
-    let rest: Vec<LeafTerm> = all.iter().map(|&i| terms[i]).collect();
+    let rest: Vec<LeafTerm> = all
+        .iter()
+        .map(|&i| terms[i])
+        .chain(kinked.iter().map(|k| k.term))
+        .collect();
     sums.add_exact(sonar, &rest);
     finish_grids(sonar, plan, grids, (sums.re, sums.im))
 }
@@ -1599,8 +1623,10 @@ pub(crate) struct Spread {
     /// The tasks' grids, in order (their sum is the pass's grid).
     grids: Vec<Vec<f64>>,
     sums: Direct,
-    /// Leaves the interpolation cannot represent (for a later pass).
+    /// Leaves the interpolation cannot represent (for a later pass), kinked paper-model ones
+    /// apart (in task order).
     pub(crate) deferred: Vec<usize>,
+    pub(crate) kinked: Vec<KinkedLeaf>,
     /// Leaves outside the model's domain (for the exact sum).
     pub(crate) exact: Vec<usize>,
 }
@@ -1622,12 +1648,14 @@ pub(crate) fn spread_pass(
             grids: vec![part.grid],
             sums: part.direct,
             deferred: part.deferred,
+            kinked: part.kinked,
             exact: part.exact,
         };
     }
     let mut grids: Vec<Vec<f64>> = Vec::new();
     let mut sums = Direct::new(m);
     let (mut deferred, mut exact): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
+    let mut kinked = Vec::new();
     let mut offset = 0usize;
     let mut add = |parts: Vec<(Partial, usize)>| {
         if grids.len() > 1 {
@@ -1637,6 +1665,7 @@ pub(crate) fn spread_pass(
         }
         for (part, len) in parts {
             deferred.extend(part.deferred.iter().map(|&i| i + offset));
+            kinked.extend_from_slice(&part.kinked);
             exact.extend(part.exact.iter().map(|&i| i + offset));
             sums.add(&part.direct);
             offset += len;
@@ -1660,6 +1689,7 @@ pub(crate) fn spread_pass(
         grids,
         sums,
         deferred,
+        kinked,
         exact,
     }
 }

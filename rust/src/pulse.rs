@@ -25,6 +25,7 @@ use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
 use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
+use crate::subband::KinkedLeaf;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -48,8 +49,10 @@ pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> 
 struct Part {
     grid: Vec<f64>,
     direct: Direct,
-    /// Leaves that failed the smoothness check (see [`crate::fast::leftover_pass`]).
+    /// Leaves that failed the smoothness check (see [`crate::fast::leftover_pass`]), kinked
+    /// paper-model ones apart.
     deferred: Vec<LeafTerm>,
+    kinked: Vec<KinkedLeaf>,
     /// Leaves routed to the exact sum (outside the paper model's domain).
     exact: Vec<LeafTerm>,
     count: u64,
@@ -64,6 +67,7 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         grid: take_grid(2 * p * glen),
         direct: Direct::new(sonar.n_bins()),
         deferred: Vec::new(),
+        kinked: Vec::new(),
         exact: Vec::new(),
         count: 0,
         too_close: None,
@@ -86,7 +90,12 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         };
         for i in 0..lanes.n {
             if failed.defer[i] {
-                part.deferred.push(lanes.term(i));
+                match lanes.kink[i] {
+                    NOT_KINKED => part.deferred.push(lanes.term(i)),
+                    mk => part
+                        .kinked
+                        .push(KinkedLeaf::new(sonar, plan.tol, lanes.term(i), mk)),
+                }
             } else if failed.exact[i] {
                 part.exact.push(lanes.term(i));
             }
@@ -246,16 +255,17 @@ pub fn fast_pulse(
         return Ok((vec![0.0; m], vec![0.0; m], 0));
     }
     // The leaves for the later passes (in chunk order), and the count.
-    let (mut deferred, mut exact, mut count) = (Vec::new(), Vec::new(), 0);
+    let (mut deferred, mut kinked, mut exact, mut count) = (Vec::new(), Vec::new(), Vec::new(), 0);
     for part in &parts {
         deferred.extend_from_slice(&part.deferred);
+        kinked.extend_from_slice(&part.kinked);
         exact.extend_from_slice(&part.exact);
         count += part.count;
     }
     // The leaves the first pass left run beside the sum of the chunks' grids and the first
     // pass's transforms (each parallel inside).
     let (left, (mut re, mut im)) = rayon::join(
-        || leftover_pass(sonar, plan, &deferred, &exact),
+        || leftover_pass(sonar, plan, &deferred, &kinked, &exact),
         || {
             let mut parts = parts.into_iter();
             let first_part = parts.next().expect("one part at least");

@@ -20,10 +20,9 @@
 //! sub-bands are added into the band in order.
 
 use crate::error::Result;
-use crate::fast::{choose_nodes_from, chunk_len, fast_sum_fixed, kink_bin, K_FACTOR_TOL};
+use crate::fast::{choose_nodes_from, chunk_len, fast_sum_fixed, K_FACTOR_TOL};
 use crate::sonar::{Sonar, Window};
 use crate::spectrum::LeafTerm;
-use multiversion::multiversion;
 use rayon::prelude::*;
 
 /// Bins per sub-band, about (measured against 150: the same at 1e6 leaves, 2-3 % faster at 1e5,
@@ -80,39 +79,35 @@ impl SubBands {
 
     /// The node count for all sub-bands: chosen from a sample of the leaves smooth over the
     /// last sub-band (all but those whose corner lies in it), the worst case for few leaves.
-    fn node_count(&self, tol: f64, terms: &[LeafTerm]) -> Result<usize> {
+    fn node_count(&self, tol: f64, leaves: &[KinkedLeaf]) -> Result<usize> {
         let (_, last) = self.bands.last().expect("sub-bands");
         let full = last.fast_plans.get(last, tol)?;
-        if terms.len() < ADAPT_MIN {
+        if leaves.len() < ADAPT_MIN {
             return Ok(full.p);
         }
-        let stride = (terms.len() / 256).max(1);
-        let sample: Vec<&LeafTerm> = terms.iter().step_by(stride).collect();
+        let stride = (leaves.len() / 256).max(1);
+        let sample: Vec<&LeafTerm> = leaves.iter().step_by(stride).map(|k| &k.term).collect();
         let p = choose_nodes_from(last, &full, &sample);
         Ok(p)
     }
 
     /// The windowed band spectrum (of `sonar`, whose sub-bands these are) of kinked
-    /// paper-model leaves, to `tol`.
+    /// paper-model leaves (their first live bins and floors from [`KinkedLeaf::new`] at `tol`),
+    /// to `tol`.
     pub(crate) fn kinked_sum(
         &self,
         sonar: &Sonar,
         tol: f64,
-        leaves: &[LeafTerm],
+        leaves: &[KinkedLeaf],
     ) -> Result<(Vec<f64>, Vec<f64>)> {
         let m = sonar.n_bins();
-        // The leaves' first live bins and floors, beside the node count.
-        let (keys, p) = rayon::join(
-            || kinks_and_floors_par(sonar, tol, leaves),
-            || self.node_count(tol, leaves),
-        );
-        let p = p?;
+        let p = self.node_count(tol, leaves)?;
         let parts: Vec<Result<(Vec<f64>, Vec<f64>)>> = self
             .bands
             .par_iter()
             .map(|(lo, sub)| {
                 // a sub-band's leaves: those live somewhere in it, in the callers' order
-                let (terms, floors) = live_in(leaves, &keys, lo + sub.n_bins());
+                let (terms, floors) = live_before(leaves, lo + sub.n_bins());
                 band_sum(sub, tol, p, &terms, &floors)
             })
             .collect();
@@ -128,41 +123,43 @@ impl SubBands {
     }
 }
 
-/// Leaves per task of [`kinks_and_floors_par`].
-const KEY_CHUNK: usize = 128;
+/// A kinked paper-model leaf for the sub-bands: its term, first live bin in the band and
+/// error floor ([`top_bin_magnitude`]). A first pass makes these for the leaves it defers, in
+/// its own tasks.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct KinkedLeaf {
+    pub(crate) term: LeafTerm,
+    pub(crate) live_from: usize,
+    pub(crate) floor: f64,
+}
 
-/// The first live bin and error floor ([`top_bin_magnitude`]) of each leaf, in tasks of
-/// [`KEY_CHUNK`].
-fn kinks_and_floors_par(sonar: &Sonar, tol: f64, leaves: &[LeafTerm]) -> Vec<(usize, f64)> {
-    leaves
-        .par_chunks(KEY_CHUNK)
-        .flat_map_iter(|c| kinks_and_floors(sonar, tol, c))
-        .collect()
+impl KinkedLeaf {
+    /// The leaf `t` of `sonar`'s band whose first live bin is `live_from`, for tolerance `tol`.
+    #[inline(always)]
+    pub(crate) fn new(sonar: &Sonar, tol: f64, t: LeafTerm, live_from: usize) -> KinkedLeaf {
+        KinkedLeaf {
+            term: t,
+            live_from,
+            floor: top_bin_magnitude(sonar, tol, &t),
+        }
+    }
+
+    /// [`KinkedLeaf::new`] with the first live bin found here.
+    #[cfg(test)]
+    fn of(sonar: &Sonar, tol: f64, t: LeafTerm) -> KinkedLeaf {
+        let live_from = crate::fast::kink_bin(sonar, t.radius_pow_b, t.beta);
+        KinkedLeaf::new(sonar, tol, t, live_from)
+    }
 }
 
 /// The leaves live before band bin `end` (first live bin below it), in order, with their
 /// floors.
-fn live_in(leaves: &[LeafTerm], keys: &[(usize, f64)], end: usize) -> (Vec<LeafTerm>, Vec<f64>) {
+fn live_before(leaves: &[KinkedLeaf], end: usize) -> (Vec<LeafTerm>, Vec<f64>) {
     leaves
         .iter()
-        .zip(keys)
-        .filter(|(_, &(mk, _))| mk < end)
-        .map(|(t, &(_, floor))| (*t, floor))
+        .filter(|k| k.live_from < end)
+        .map(|k| (k.term, k.floor))
         .unzip()
-}
-
-/// First live bin and error floor of each leaf.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn kinks_and_floors(sonar: &Sonar, tol: f64, leaves: &[LeafTerm]) -> Vec<(usize, f64)> {
-    leaves
-        .iter()
-        .map(|t| {
-            (
-                kink_bin(sonar, t.radius_pow_b, t.beta),
-                top_bin_magnitude(sonar, tol, t),
-            )
-        })
-        .collect()
 }
 
 /// One sub-band's fast sum at `p` nodes, the leaves that fail the check summed exactly (over
@@ -193,7 +190,7 @@ fn band_sum(
 /// measures the error against the peak on the live side; a sub-band near the corner sees only
 /// small values). Channels carry `k F` below [`K_FACTOR_TOL`], `F` above.
 #[inline(always)]
-fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
+pub(crate) fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
     use crate::leaf_model::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};
     let j = sonar.n_bins() - 1;
     let k = sonar.wavenumbers[j];
@@ -225,6 +222,11 @@ mod tests {
             p.atmosphere = atm;
             p.window = window;
         })
+    }
+
+    /// The leaves with their first live bins and floors, as a first pass gives them.
+    fn keyed(s: &Sonar, tol: f64, t: &[LeafTerm]) -> Vec<KinkedLeaf> {
+        t.iter().map(|&t| KinkedLeaf::of(s, tol, t)).collect()
     }
 
     /// `n` kinked leaves: radii 3 mm - 10 cm, near and far.
@@ -277,14 +279,17 @@ mod tests {
             let t = kinked(&s, 3000, 1);
             let exact = sum_terms(&s, &t);
             for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
-                let err = rel_l2(&subs.kinked_sum(&s, tol, &t).unwrap(), &exact);
+                let err = rel_l2(
+                    &subs.kinked_sum(&s, tol, &keyed(&s, tol, &t)).unwrap(),
+                    &exact,
+                );
                 assert!(err <= tol, "atm {} tol {tol:e}: {err:e}", atm.is_some());
             }
             // each leaf alone (its own peak sets the scale), corners near either band edge
             for leaf in kinked(&s, 60, 2) {
                 let one = std::slice::from_ref(&leaf);
                 let err = rel_l2(
-                    &subs.kinked_sum(&s, 1e-9, one).unwrap(),
+                    &subs.kinked_sum(&s, 1e-9, &keyed(&s, 1e-9, one)).unwrap(),
                     &sum_terms(&s, one),
                 );
                 assert!(err <= 1e-9, "{leaf:?}: {err:e}");
@@ -296,7 +301,7 @@ mod tests {
     fn kinked_sum_is_bit_identical_for_one_and_two_threads() {
         let s = sonar(None, Window::Hann);
         let subs = s.sub_bands().unwrap();
-        let t = kinked(&s, 20_000, 3);
+        let t = keyed(&s, 1e-6, &kinked(&s, 20_000, 3));
         let a = subs.kinked_sum(&s, 1e-6, &t).unwrap();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
@@ -327,12 +332,10 @@ mod tests {
     fn with_their_floors_few_kinked_leaves_fall_to_the_exact_sum_in_a_sub_band() {
         let s = sonar(None, Window::Hann);
         let subs = s.sub_bands().unwrap();
-        let terms = kinked(&s, 3000, 5);
-        let floors: Vec<f64> = kinks_and_floors_par(&s, 1e-6, &terms)
-            .iter()
-            .map(|k| k.1)
-            .collect();
-        let p = subs.node_count(1e-6, &terms).unwrap();
+        let leaves = keyed(&s, 1e-6, &kinked(&s, 3000, 5));
+        let (terms, floors): (Vec<LeafTerm>, Vec<f64>) =
+            leaves.iter().map(|k| (k.term, k.floor)).unzip();
+        let p = subs.node_count(1e-6, &leaves).unwrap();
         assert!(p <= 5, "{p}");
         let n = terms.len();
         for (b, (lo, sub)) in subs.bands.iter().enumerate() {
