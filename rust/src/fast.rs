@@ -779,8 +779,6 @@ pub(crate) struct PaperLanes {
     pub(crate) amp: [f64; LB],
     pub(crate) range: [f64; LB],
     pub(crate) beta: [f64; LB],
-    pub(crate) cos_beta: [f64; LB],
-    pub(crate) sin_beta: [f64; LB],
     /// Radius, `radius^-0.9065`, `radius^0.3523`.
     pub(crate) a: [f64; LB],
     pub(crate) ap: [f64; LB],
@@ -805,8 +803,6 @@ impl PaperLanes {
             amp: z,
             range: z,
             beta: z,
-            cos_beta: z,
-            sin_beta: z,
             a: z,
             ap: z,
             aq: z,
@@ -836,8 +832,6 @@ impl PaperLanes {
         self.amp[i] = t.amp;
         self.range[i] = t.range;
         self.beta[i] = t.beta;
-        self.cos_beta[i] = t.cos_beta;
-        self.sin_beta[i] = t.sin_beta;
         self.a[i] = t.radius;
         self.ap[i] = t.radius_pow_b;
         self.aq[i] = t.radius_pow_p;
@@ -854,8 +848,6 @@ impl PaperLanes {
         self.amp[i] = from.amp[k];
         self.range[i] = from.range[k];
         self.beta[i] = from.beta[k];
-        self.cos_beta[i] = from.cos_beta[k];
-        self.sin_beta[i] = from.sin_beta[k];
         self.a[i] = from.a[k];
         self.ap[i] = from.ap[k];
         self.aq[i] = from.aq[k];
@@ -906,14 +898,16 @@ impl PaperLanes {
         true
     }
 
-    /// Lane `i` as a term.
+    /// Lane `i` as a term (its `cos beta`, `sin beta`, which the paper model does not use,
+    /// from `beta`).
     pub(crate) fn term(&self, i: usize) -> LeafTerm {
+        let (sin_beta, cos_beta) = self.beta[i].sin_cos();
         LeafTerm {
             amp: self.amp[i],
             range: self.range[i],
             beta: self.beta[i],
-            cos_beta: self.cos_beta[i],
-            sin_beta: self.sin_beta[i],
+            cos_beta,
+            sin_beta,
             radius: self.a[i],
             radius_pow_b: self.ap[i],
             radius_pow_p: self.aq[i],
@@ -930,8 +924,6 @@ impl PaperLanes {
             self.amp[i] = self.amp[n - 1];
             self.range[i] = self.range[n - 1];
             self.beta[i] = self.beta[n - 1];
-            self.cos_beta[i] = self.cos_beta[n - 1];
-            self.sin_beta[i] = self.sin_beta[n - 1];
             self.a[i] = self.a[n - 1];
             self.ap[i] = self.ap[n - 1];
             self.aq[i] = self.aq[n - 1];

@@ -125,8 +125,6 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
             amp: std::array::from_fn(|k| leaf_amp(sonar, v.gain[k], range[k])),
             range,
             beta: v.beta,
-            cos_beta: v.cos_beta,
-            sin_beta: v.sin_beta,
             a: std::array::from_fn(|k| scene.radii[leaf(k)]),
             ap: std::array::from_fn(|k| scene.radius_pow_b[leaf(k)]),
             aq: std::array::from_fn(|k| scene.radius_pow_p[leaf(k)]),
@@ -157,7 +155,6 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
                     };
                     let t = leaf_term(sonar, scene, &mb);
                     (bl.amp[k], bl.range[k], bl.beta[k]) = (t.amp, t.range, t.beta);
-                    (bl.cos_beta[k], bl.sin_beta[k]) = (t.cos_beta, t.sin_beta);
                     paper_route(
                         sonar,
                         paper_regime(&sonar.tables, &t),
