@@ -937,7 +937,7 @@ impl PaperLanes {
 /// larger ones choose it from a sample of their own leaves.
 pub const ADAPT_MIN_LEAVES: usize = 8192;
 /// Leaves sampled to choose the node count.
-const ADAPT_SAMPLE: usize = 256;
+const ADAPT_SAMPLE: usize = 128;
 
 /// The number of Chebyshev nodes for these leaves: from a sample of them (smooth, paper model),
 /// the node count each needs for `tol` is read off its Chebyshev coefficients at the plan's

@@ -29,8 +29,8 @@ use crate::subband::KinkedLeaf;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
-/// Candidates sampled to choose the node count (it uses at most 256 smooth members).
-const SAMPLE: usize = 512;
+/// Candidates sampled to choose the node count (it uses at most 128 smooth members).
+const SAMPLE: usize = 256;
 
 /// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
 /// every leaf in index order.
