@@ -105,6 +105,7 @@ impl SubBands {
         let parts: Vec<Result<(Vec<f64>, Vec<f64>)>> = self
             .bands
             .par_iter()
+            .with_max_len(1)
             .map(|(lo, sub)| {
                 // a sub-band's leaves: those live somewhere in it, in the callers' order
                 let (terms, floors) = live_before(leaves, lo + sub.n_bins());
