@@ -156,11 +156,15 @@ impl KinkedLeaf {
 /// The leaves live before band bin `end` (first live bin below it), in order, with their
 /// floors.
 fn live_before(leaves: &[KinkedLeaf], end: usize) -> (Vec<LeafTerm>, Vec<f64>) {
-    leaves
-        .iter()
-        .filter(|k| k.live_from < end)
-        .map(|k| (k.term, k.floor))
-        .unzip()
+    let (mut terms, mut floors) = (
+        Vec::with_capacity(leaves.len()),
+        Vec::with_capacity(leaves.len()),
+    );
+    for k in leaves.iter().filter(|k| k.live_from < end) {
+        terms.push(k.term);
+        floors.push(k.floor);
+    }
+    (terms, floors)
 }
 
 /// One sub-band's fast sum at `p` nodes, the leaves that fail the check summed exactly (over
