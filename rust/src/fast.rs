@@ -1686,6 +1686,21 @@ pub(crate) fn spread_pass(
     }
 }
 
+/// One channel (`span` of each grid) of the tasks' grids summed in their order, as complex
+/// values.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn channel_sum(grids: &[Vec<f64>], span: std::ops::Range<usize>) -> Vec<Complex64> {
+    let mut acc = grids[0][span.clone()].to_vec();
+    for g in &grids[1..] {
+        for (a, v) in acc.iter_mut().zip(&g[span.clone()]) {
+            *a += v;
+        }
+    }
+    acc.chunks_exact(2)
+        .map(|v| Complex64::new(v[0], v[1]))
+        .collect()
+}
+
 /// The windowed band spectrum from the tasks' spread grids (their sum, one NUFFT per
 /// channel, then the Lagrange combination) plus the unwindowed exactly summed part `direct`.
 /// The grids are summed in their order at every value (so the sums do not depend on the
@@ -1702,17 +1717,7 @@ pub(crate) fn finish_grids(
     let modes: Vec<Vec<Complex64>> = (0..p)
         .into_par_iter()
         .map(|c| {
-            let span = 2 * c * glen..2 * (c + 1) * glen;
-            let mut cg: Vec<Complex64> = grids[0][span.clone()]
-                .chunks_exact(2)
-                .map(|v| Complex64::new(v[0], v[1]))
-                .collect();
-            for g in &grids[1..] {
-                for (z, v) in cg.iter_mut().zip(g[span.clone()].chunks_exact(2)) {
-                    z.re += v[0];
-                    z.im += v[1];
-                }
-            }
+            let mut cg = channel_sum(&grids, 2 * c * glen..2 * (c + 1) * glen);
             let mut out = vec![Complex64::new(0.0, 0.0); m];
             plan.nufft.finish(&mut cg, &mut out);
             out

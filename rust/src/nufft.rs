@@ -251,11 +251,15 @@ impl Type1Plan {
         }
         let g = &mut grid[pad..pad + nf];
         self.fft.process(g);
+        // Mode k = i - modes/2 sits at k mod nf: the negative ones at the grid's end.
         let half = self.modes / 2;
-        for (i, o) in out.iter_mut().enumerate() {
-            let k = i as i64 - half as i64;
-            let idx = k.rem_euclid(nf as i64) as usize;
-            *o = g[idx] * self.correction[i];
+        let (neg, nonneg) = out.split_at_mut(half);
+        let (c_neg, c_nonneg) = self.correction.split_at(half);
+        for ((o, &v), &c) in neg.iter_mut().zip(&g[nf - half..]).zip(c_neg) {
+            *o = v * c;
+        }
+        for ((o, &v), &c) in nonneg.iter_mut().zip(&g[..]).zip(c_nonneg) {
+            *o = v * c;
         }
     }
 }
