@@ -401,20 +401,6 @@ struct Partial {
     exact: Vec<usize>,
 }
 
-impl Partial {
-    /// Defer lane `k` of a batch (leaf `id` of the chunk): a kinked one with its first live
-    /// bin and floor for the sub-bands.
-    #[inline(always)]
-    fn defer(&mut self, sonar: &Sonar, plan: &FastPlan, lanes: &PaperLanes, k: usize, id: usize) {
-        match lanes.kink[k] {
-            NOT_KINKED => self.deferred.push(id),
-            mk => self
-                .kinked
-                .push(KinkedLeaf::new(sonar, plan.tol, lanes.term(k), mk)),
-        }
-    }
-}
-
 /// The most lanes that add nothing in a block of leaves batched whole: each costs a lane of
 /// the batch's vector work, about three times what routing a counting leaf alone costs (an
 /// estimate from a 1e6-leaf profile: ~12 ns against ~4 ns).
@@ -898,6 +884,19 @@ impl PaperLanes {
         true
     }
 
+    /// Lane `i`, a kinked leaf, for the sub-bands (its first live bin and its floor at the
+    /// plan's tolerance); None for a smooth one.
+    #[inline(always)]
+    pub(crate) fn kinked_leaf(
+        &self,
+        sonar: &Sonar,
+        plan: &FastPlan,
+        i: usize,
+    ) -> Option<KinkedLeaf> {
+        (self.kink[i] != NOT_KINKED)
+            .then(|| KinkedLeaf::new(sonar, plan.tol, self.term(i), self.kink[i]))
+    }
+
     /// Lane `i` as a term (its `cos beta`, `sin beta`, which the paper model does not use,
     /// from `beta`).
     pub(crate) fn term(&self, i: usize) -> LeafTerm {
@@ -1379,7 +1378,10 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f6
                 };
                 for (k, &id) in ids[..lanes.n].iter().enumerate() {
                     if failed.defer[k] {
-                        part.defer(sonar, plan, lanes, k, id);
+                        match lanes.kinked_leaf(sonar, plan, k) {
+                            Some(kl) => part.kinked.push(kl),
+                            None => part.deferred.push(id),
+                        }
                     } else if failed.exact[k] {
                         part.exact.push(id);
                     }
@@ -1609,8 +1611,9 @@ pub(crate) fn fast_sum_fixed(
     finish_grids(sonar, plan, grids, (sums.re, sums.im))
 }
 
-/// The spreading of one fast pass: the tasks' grids summed, the terms they added bin by bin,
-/// and the leaves they left, as ascending indices into the terms.
+/// The spreading of one fast pass: the tasks' grids (for [`finish_grids`] to sum), the terms
+/// they added bin by bin, and the leaves they left, as ascending indices into the terms (the
+/// kinked ones as [`KinkedLeaf`]s).
 pub(crate) struct Spread {
     /// The tasks' grids, in order (their sum is the pass's grid).
     grids: Vec<Vec<f64>>,
@@ -1623,8 +1626,8 @@ pub(crate) struct Spread {
     pub(crate) exact: Vec<usize>,
 }
 
-/// The spreading part of a fast pass ([`fast_sum_fixed`]): `chunk` leaves per task, grids
-/// summed in task order.
+/// The spreading part of a fast pass ([`fast_sum_fixed`]): `chunk` leaves per task, the
+/// tasks' grids kept in task order.
 pub(crate) fn spread_pass(
     sonar: &Sonar,
     plan: &FastPlan,
@@ -1652,8 +1655,8 @@ pub(crate) fn spread_pass(
     let mut add = |parts: Vec<(Partial, usize)>| {
         if grids.len() > 1 {
             // (a later batch: the earlier ones summed into the first grid, in order)
-            let mut rest = grids.split_off(1);
-            add_grids(&mut grids[0], std::mem::take(&mut rest));
+            let rest = grids.split_off(1);
+            add_grids(&mut grids[0], rest);
         }
         for (part, len) in parts {
             deferred.extend(part.deferred.iter().map(|&i| i + offset));

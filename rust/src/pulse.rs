@@ -90,11 +90,9 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         };
         for i in 0..lanes.n {
             if failed.defer[i] {
-                match lanes.kink[i] {
-                    NOT_KINKED => part.deferred.push(lanes.term(i)),
-                    mk => part
-                        .kinked
-                        .push(KinkedLeaf::new(sonar, plan.tol, lanes.term(i), mk)),
+                match lanes.kinked_leaf(sonar, plan, i) {
+                    Some(kl) => part.kinked.push(kl),
+                    None => part.deferred.push(lanes.term(i)),
                 }
             } else if failed.exact[i] {
                 part.exact.push(lanes.term(i));

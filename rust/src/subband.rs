@@ -195,7 +195,7 @@ fn band_sum(
 /// measures the error against the peak on the live side; a sub-band near the corner sees only
 /// small values). Channels carry `k F` below [`K_FACTOR_TOL`], `F` above.
 #[inline(always)]
-pub(crate) fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
+fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
     use crate::leaf_model::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};
     let j = sonar.n_bins() - 1;
     let k = sonar.wavenumbers[j];
