@@ -9,6 +9,7 @@
 
 pub mod absorption;
 pub mod beam;
+pub mod candidates;
 pub mod erf_table;
 pub mod error;
 pub mod fast;

@@ -3,6 +3,7 @@
 //! that provably hold no counting leaf. The index never changes the answer: every candidate
 //! goes through the same exact test as the brute-force scan.
 
+use crate::candidates::Candidates;
 use crate::error::{Error, Result};
 use crate::pose::{cross, dot, norm, sub, Pose, V3};
 use crate::scene::Scene;
@@ -277,13 +278,17 @@ pub fn test_box(
 /// (the exact test rejects the rest at a few nanoseconds each; a node test costs ~0.2 us).
 const SMALL_SUBTREE: u32 = 8;
 
-/// Visit every leaf index the BVH cannot rule out (a superset of the counting leaves), a run
-/// of stored indices at a time (a whole subtree or a BVH leaf), in traversal order.
-pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl FnMut(&[u32])) {
+/// Every leaf the BVH cannot rule out (a superset of the counting leaves), in traversal order:
+/// a whole subtree or a BVH leaf at a time.
+pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose) -> Candidates {
     let bvh = &scene.bvh;
+    let mut out = Candidates::default();
     if bvh.nodes.is_empty() {
-        return;
+        return out;
     }
+    // With `node_ranges`, the scene is stored in BVH order (`primitive_indices` is the
+    // identity), so a node's leaves are the run of stored indices below it.
+    let in_order = !scene.node_ranges.is_empty();
     let node_box = |i: usize| {
         let a = bvh.nodes[i].aabb();
         (
@@ -310,18 +315,23 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, mut visit: impl
                 BoxTest::Inside => true,
             }
         };
-        if inside && !scene.node_ranges.is_empty() {
-            // the whole subtree counts as candidates: its stored leaves are one range
+        if inside && in_order {
+            // the whole subtree counts as candidates: its stored leaves are one run
             let (lo, hi) = scene.node_ranges[ni as usize];
-            visit(&bvh.primitive_indices[lo as usize..hi as usize]);
+            out.push_run(lo, hi);
         } else if node.is_leaf() {
-            let first = node.first_index as usize;
-            visit(&bvh.primitive_indices[first..first + node.prim_count as usize]);
+            let (first, count) = (node.first_index, node.prim_count);
+            if in_order {
+                out.push_run(first, first + count);
+            } else {
+                out.push_ids(&bvh.primitive_indices[first as usize..(first + count) as usize]);
+            }
         } else {
             stack.push((node.first_index + 1, inside));
             stack.push((node.first_index, inside));
         }
     }
+    out
 }
 
 /// One counting leaf: its index, range, two-way gain and incidence angle `beta` in [0, pi/2].
@@ -459,18 +469,30 @@ pub(crate) fn classify_candidates(
     sonar: &Sonar,
     pose: &Pose,
     cands: &[u32],
+    consecutive: bool,
     too_close: &mut Option<(usize, f64)>,
 ) -> (BlockView, [f64; CB]) {
     let p = pose.position;
     let sp = &sonar.params;
     let n = cands.len();
     let mut g = Gathered::default();
-    for k in 0..CB {
-        let i = cands[k.min(n - 1)] as usize;
+    let mut gather = |k: usize, i: usize| {
         let c = scene.centers[i];
         let nv = scene.normals[i];
         (g.dx[k], g.dy[k], g.dz[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
         (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
+    };
+    if consecutive && n == CB {
+        // a run of stored leaves: plain loads, no gather
+        let first = cands[0] as usize;
+        assert!(first + CB <= scene.centers.len() && first + CB <= scene.normals.len());
+        for k in 0..CB {
+            gather(k, first + k);
+        }
+    } else {
+        for k in 0..CB {
+            gather(k, cands[k.min(n - 1)] as usize);
+        }
     }
     // the range exactly as `classify` computes it
     for k in 0..CB {
@@ -744,7 +766,9 @@ pub fn members(
         sonar,
         pose,
         pose_index,
-        crate::pulse::candidates(scene, sonar, pose, search),
+        crate::pulse::candidates(scene, sonar, pose, search)
+            .iter()
+            .collect(),
     )
 }
 

@@ -13,6 +13,7 @@
 //! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
 //! test ([`crate::lobe::classify_candidates`]).
 
+use crate::candidates::Candidates;
 use crate::error::{Error, Result};
 use crate::fast::{
     choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch, paper_route, po_leaf,
@@ -20,7 +21,7 @@ use crate::fast::{
     NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of};
-use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search, CB};
+use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
@@ -34,14 +35,10 @@ const SAMPLE: usize = 256;
 
 /// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
 /// every leaf in index order.
-pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> Vec<u32> {
+pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> Candidates {
     match search {
-        Search::Bvh => {
-            let mut c = Vec::new();
-            bvh_candidates(scene, sonar, pose, |ids| c.extend_from_slice(ids));
-            c
-        }
-        Search::BruteForce => (0..scene.len() as u32).collect(),
+        Search::Bvh => bvh_candidates(scene, sonar, pose),
+        Search::BruteForce => Candidates::all(scene.len()),
     }
 }
 
@@ -59,9 +56,16 @@ struct Part {
     too_close: Option<(usize, f64)>,
 }
 
-/// Lobe test, terms and spreading for one chunk of candidates.
+/// Lobe test, terms and spreading for the candidates at positions `span`.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands: &[u32]) -> Part {
+fn pulse_chunk(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    plan: &FastPlan,
+    cands: &Candidates,
+    span: std::ops::Range<usize>,
+) -> Part {
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut part = Part {
         grid: take_grid(2 * p * glen),
@@ -100,8 +104,10 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
         }
         lanes.n = 0;
     };
-    for block in cands.chunks(CB) {
-        let (v, range) = classify_candidates(scene, sonar, pose, block, &mut part.too_close);
+    let mut blocks = cands.blocks(span);
+    while let Some((block, consecutive)) = blocks.next_block() {
+        let (v, range) =
+            classify_candidates(scene, sonar, pose, block, consecutive, &mut part.too_close);
         if !paper {
             for (k, &i) in block.iter().enumerate() {
                 let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) else {
@@ -184,8 +190,8 @@ fn pulse_chunk(scene: &Scene, sonar: &Sonar, pose: &Pose, plan: &FastPlan, cands
 fn sample_terms(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &[u32]) -> Vec<LeafTerm> {
     let mut out = Vec::with_capacity(cands.len());
     let mut too_close = None; // (reported by the pass itself)
-    for block in cands.chunks(CB) {
-        let (v, range) = classify_candidates(scene, sonar, pose, block, &mut too_close);
+    for block in cands.chunks(crate::lobe::CB) {
+        let (v, range) = classify_candidates(scene, sonar, pose, block, false, &mut too_close);
         for (k, &i) in block.iter().enumerate() {
             if let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) {
                 out.push(leaf_term(sonar, scene, &mb));
@@ -203,14 +209,17 @@ pub fn fast_pulse(
     plan: &FastPlan,
     pose: &Pose,
     pose_index: usize,
-    cands: &[u32],
+    cands: &Candidates,
 ) -> Result<(Vec<f64>, Vec<f64>, u64)> {
     // The node count, from a sample of the counting leaves (see `fast::choose_nodes`).
     let small_plan;
     let first: &FastPlan =
         if cands.len() >= ADAPT_MIN_LEAVES && sonar.params.leaf_model == LeafModel::Paper {
             let stride = (cands.len() / SAMPLE).max(1);
-            let picked: Vec<u32> = cands.iter().step_by(stride).copied().collect();
+            let picked: Vec<u32> = (0..cands.len())
+                .step_by(stride)
+                .map(|pos| cands.get(pos))
+                .collect();
             // (in parallel, in order: the reads are scattered)
             let sample: Vec<LeafTerm> = picked
                 .par_chunks(128)
@@ -227,9 +236,20 @@ pub fn fast_pulse(
         } else {
             plan
         };
-    let parts: Vec<Part> = cands
-        .par_chunks(chunk_len(cands.len(), first.nufft.nf))
-        .map(|c| pulse_chunk(scene, sonar, pose, first, c))
+    let n = cands.len();
+    let cl = chunk_len(n, first.nufft.nf);
+    let parts: Vec<Part> = (0..n.div_ceil(cl))
+        .into_par_iter()
+        .map(|c| {
+            pulse_chunk(
+                scene,
+                sonar,
+                pose,
+                first,
+                cands,
+                c * cl..n.min((c + 1) * cl),
+            )
+        })
         .collect();
     if sonar.params.too_close == TooClose::Error {
         if let Some((leaf, range)) = parts
@@ -383,7 +403,7 @@ mod tests {
         });
         assert_eq!(kinked.count(), mem.len());
         let (er, ei) = band_spectrum(&s, &sc, &mem);
-        let cands = (0..sc.len() as u32).collect::<Vec<_>>();
+        let cands = Candidates::all(sc.len());
         for tol in [1e-3, 1e-6, 1e-9] {
             let plan = FastPlan::new(&s, tol).unwrap();
             let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands).unwrap();
@@ -416,7 +436,7 @@ mod tests {
         assert_eq!(sc.node_ranges.len(), sc.bvh.nodes.len());
         let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.2, 0.0], [0.0, 0.0, 1.0]).unwrap();
         for s in sonars() {
-            let c = candidates(&sc, &s, &pose, Search::Bvh);
+            let c: Vec<u32> = candidates(&sc, &s, &pose, Search::Bvh).iter().collect();
             assert!(!c.is_empty());
             assert!(c.windows(2).all(|w| w[0] < w[1]));
         }
