@@ -67,6 +67,15 @@ impl Candidates {
         self.runs.iter().flat_map(|&(lo, hi)| lo..hi)
     }
 
+    /// All candidates, in order, as a list of indices.
+    pub fn to_vec(&self) -> Vec<u32> {
+        let mut v = Vec::with_capacity(self.len);
+        for &(lo, hi) in &self.runs {
+            v.extend(lo..hi);
+        }
+        v
+    }
+
     /// The candidates at positions `span`, in blocks of [`CB`] (the last one shorter): the
     /// same blocks as `ids[span].chunks(CB)` of the list of indices.
     pub fn blocks(&self, span: Range<usize>) -> Blocks<'_> {
@@ -159,6 +168,7 @@ mod tests {
             let (c, ids) = random_runs(seed);
             assert_eq!(c.len(), ids.len());
             assert!(c.iter().eq(ids.iter().copied()));
+            assert_eq!(c.to_vec(), ids);
             for _ in 0..50 {
                 let a = (u() * (ids.len() + 1) as f64) as usize;
                 let b = a + (u() * (ids.len() - a + 1) as f64) as usize;

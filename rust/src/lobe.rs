@@ -766,9 +766,7 @@ pub fn members(
         sonar,
         pose,
         pose_index,
-        crate::pulse::candidates(scene, sonar, pose, search)
-            .iter()
-            .collect(),
+        crate::pulse::candidates(scene, sonar, pose, search).to_vec(),
     )
 }
 

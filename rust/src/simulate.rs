@@ -133,7 +133,7 @@ pub fn simulate(
             let (re, im, count) = if let (true, Some(pl)) = (fused, &plan) {
                 fast_pulse(scene, sonar, pl, pose, i, &cands)?
             } else {
-                let mem = members_of(scene, sonar, pose, i, cands.iter().collect())?;
+                let mem = members_of(scene, sonar, pose, i, cands.to_vec())?;
                 let (re, im) = match &plan {
                     Some(pl) if cost_fast(mem.len(), m, pl) < cost_exact(mem.len(), m) => {
                         fast_band_spectrum(sonar, pl, scene, &mem)
