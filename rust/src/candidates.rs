@@ -55,11 +55,16 @@ impl Candidates {
         self.len == 0
     }
 
-    /// The candidate at position `pos` (`pos < len`).
-    pub fn get(&self, pos: usize) -> u32 {
+    /// The run holding position `pos` (`pos < len`) and the candidate there.
+    fn locate(&self, pos: usize) -> (usize, u32) {
         assert!(pos < self.len, "candidate {pos} of {}", self.len);
         let r = self.before.partition_point(|&b| b <= pos) - 1;
-        self.runs[r].0 + (pos - self.before[r]) as u32
+        (r, self.runs[r].0 + (pos - self.before[r]) as u32)
+    }
+
+    /// The candidate at position `pos` (`pos < len`).
+    pub fn get(&self, pos: usize) -> u32 {
+        self.locate(pos).1
     }
 
     /// All candidates, in order.
@@ -80,11 +85,11 @@ impl Candidates {
     /// same blocks as `ids[span].chunks(CB)` of the list of indices.
     pub fn blocks(&self, span: Range<usize>) -> Blocks<'_> {
         assert!(span.start <= span.end && span.end <= self.len);
-        let (mut run, mut next) = (self.runs.len(), 0);
-        if span.start < span.end {
-            run = self.before.partition_point(|&b| b <= span.start) - 1;
-            next = self.runs[run].0 + (span.start - self.before[run]) as u32;
-        }
+        let (run, next) = if span.start < span.end {
+            self.locate(span.start)
+        } else {
+            (self.runs.len(), 0)
+        };
         Blocks {
             runs: &self.runs,
             run,
@@ -95,7 +100,8 @@ impl Candidates {
     }
 }
 
-/// Blocks of candidates (see [`Candidates::blocks`]); `while let Some(b) = blocks.next_block()`.
+/// Blocks of candidates (see [`Candidates::blocks`]):
+/// `while let Some((ids, consecutive)) = blocks.next_block() { ... }`.
 pub struct Blocks<'a> {
     runs: &'a [(u32, u32)],
     run: usize,
@@ -114,8 +120,8 @@ impl Blocks<'_> {
         }
         let hi = self.runs[self.run].1;
         if n == CB && (hi - self.next) as usize >= CB {
-            // a whole block inside the run: one vector store (the lobe test then loads the
-            // indices as one vector; scalar stores would not forward to that load)
+            // a whole block inside the run (the lobe test then loads its leaves without a
+            // gather: ~2 % of a 1e6-leaf pulse on one thread)
             let first = self.next;
             self.buf = std::array::from_fn(|j| first + j as u32);
             self.next += CB as u32;
