@@ -1539,6 +1539,22 @@ pub fn fast_band_spectrum(
     fast_sum_terms(sonar, plan, &terms)
 }
 
+/// A first pass's spectrum (`first`: its transforms) plus its leftover leaves' (`left`, from
+/// [`leftover_pass`]), the two computed side by side.
+pub(crate) fn beside_leftovers(
+    left: impl FnOnce() -> Option<(Vec<f64>, Vec<f64>)> + Send,
+    first: impl FnOnce() -> (Vec<f64>, Vec<f64>) + Send,
+) -> (Vec<f64>, Vec<f64>) {
+    let (left, (mut re, mut im)) = rayon::join(left, first);
+    if let Some((lr, li)) = left {
+        for j in 0..re.len() {
+            re[j] += lr[j];
+            im[j] += li[j];
+        }
+    }
+    (re, im)
+}
+
 /// The windowed band spectrum of the given leaf terms by the fast method; `plan` fixes the
 /// tolerance and the largest node count (see [`choose_nodes`]).
 pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
@@ -1556,20 +1572,13 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
             );
             let retry: Vec<LeafTerm> = first.deferred.iter().map(|&i| terms[i]).collect();
             let exact: Vec<LeafTerm> = first.exact.iter().map(|&i| terms[i]).collect();
-            let (left, (mut re, mut im)) = rayon::join(
+            return beside_leftovers(
                 || leftover_pass(sonar, plan, &retry, &first.kinked, &exact),
                 || {
                     let (grids, sums) = (first.grids, first.sums);
                     finish_grids(sonar, &smaller, grids, (sums.re, sums.im))
                 },
             );
-            if let Some((lr, li)) = left {
-                for j in 0..re.len() {
-                    re[j] += lr[j];
-                    im[j] += li[j];
-                }
-            }
-            return (re, im);
         }
     }
     fast_sum_fixed(

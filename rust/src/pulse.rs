@@ -16,9 +16,9 @@
 use crate::candidates::Candidates;
 use crate::error::{Error, Result};
 use crate::fast::{
-    choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch, paper_route, po_leaf,
-    take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute, ADAPT_MIN_LEAVES, LB,
-    NOT_KINKED,
+    beside_leftovers, choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch,
+    paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
+    ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search};
@@ -288,7 +288,7 @@ pub fn fast_pulse(
     }
     // The leaves the first pass left run beside the sum of the chunks' grids and the first
     // pass's transforms (each parallel inside); each side gathers its own inputs.
-    let (left, (mut re, mut im)) = rayon::join(
+    let (re, im) = beside_leftovers(
         || {
             let (mut deferred, mut kinked, mut exact) = (Vec::new(), Vec::new(), Vec::new());
             for (d, k, e) in &left_over {
@@ -307,12 +307,6 @@ pub fn fast_pulse(
             finish_grids(sonar, first, grids, (direct.re, direct.im))
         },
     );
-    if let Some((lr, li)) = left {
-        for j in 0..m {
-            re[j] += lr[j];
-            im[j] += li[j];
-        }
-    }
     Ok((re, im, count))
 }
 
