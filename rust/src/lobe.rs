@@ -439,12 +439,40 @@ pub(crate) fn classify_block(
     let mut g = Gathered::default();
     for k in 0..CB {
         let (i, rk) = block[k.min(n - 1)];
-        let c = scene.centers[i as usize];
-        let nv = scene.normals[i as usize];
+        let c = scene.centers.get(i as usize);
+        let nv = scene.normals.get(i as usize);
         (g.dx[k], g.dy[k], g.dz[k], g.r[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2], rk);
         (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
     }
     classify_lanes(sonar, pose, &g, n)
+}
+
+/// How far ahead of a run's block (in stored leaves) [`prefetch_run`] asks for the next
+/// coordinates. Measured on the 1e6-leaf box scene: 128 against 64 and 256; with it the fused
+/// pulse ran ~5 % faster (the hardware prefetcher alone left the six coordinate streams
+/// waiting on memory).
+const PREFETCH_AHEAD: usize = 128;
+
+/// Ask for the cache lines of the [`CB`] coordinates from stored leaf `at` on (centres and
+/// normals), if they exist: a hint only, it never faults and changes no result.
+#[inline(always)]
+fn prefetch_run(scene: &Scene, at: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        if at + CB > scene.len() {
+            return;
+        }
+        let (c, n) = (&scene.centers, &scene.normals);
+        for v in [&c.x, &c.y, &c.z, &n.x, &n.y, &n.z] {
+            for line in (0..CB).step_by(8) {
+                // SAFETY: `at + line` is in bounds (checked above); a prefetch only hints.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(v.as_ptr().add(at + line).cast()) };
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (scene, at);
 }
 
 /// Offsets, ranges and normals of up to [`CB`] candidates, lanes.
@@ -477,17 +505,30 @@ pub(crate) fn classify_candidates(
     let n = cands.len();
     let mut g = Gathered::default();
     let mut gather = |k: usize, i: usize| {
-        let c = scene.centers[i];
-        let nv = scene.normals[i];
+        let c = scene.centers.get(i);
+        let nv = scene.normals.get(i);
         (g.dx[k], g.dy[k], g.dz[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
         (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
     };
     if consecutive && n == CB {
         // a run of stored leaves: plain loads, no gather
         let first = cands[0] as usize;
-        assert!(first + CB <= scene.centers.len() && first + CB <= scene.normals.len());
+        prefetch_run(scene, first + PREFETCH_AHEAD);
+        let run = |v: &Vec<f64>| -> [f64; CB] {
+            v[first..first + CB].try_into().expect("a run of CB leaves")
+        };
+        let (cx, cy, cz) = (
+            run(&scene.centers.x),
+            run(&scene.centers.y),
+            run(&scene.centers.z),
+        );
+        (g.nx, g.ny, g.nz) = (
+            run(&scene.normals.x),
+            run(&scene.normals.y),
+            run(&scene.normals.z),
+        );
         for k in 0..CB {
-            gather(k, first + k);
+            (g.dx[k], g.dy[k], g.dz[k]) = (cx[k] - p[0], cy[k] - p[1], cz[k] - p[2]);
         }
     } else {
         for k in 0..CB {
@@ -689,9 +730,9 @@ const CONE_AMBIGUOUS: f64 = 1e-14;
 /// The libm decision for a leaf on the detectable boundary (see [`classify_block`]), exactly
 /// as the reference makes it.
 pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32) -> Option<Member> {
-    match classify(sonar, pose, scene.centers[i as usize]) {
+    match classify(sonar, pose, scene.centers.get(i as usize)) {
         Decision::In(v) => {
-            let (beta, cos_beta, sin_beta) = incidence(v.dir, scene.normals[i as usize]);
+            let (beta, cos_beta, sin_beta) = incidence(v.dir, scene.normals.get(i as usize));
             Some(Member {
                 index: i,
                 range: v.range,
@@ -720,7 +761,7 @@ pub(crate) fn near_candidates(
     let p = pose.position;
     let sp = &sonar.params;
     for &i in chunk {
-        let c = scene.centers[i as usize];
+        let c = scene.centers.get(i as usize);
         let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
         let r = (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt();
         if !(r >= sp.min_range) {

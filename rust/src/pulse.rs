@@ -463,7 +463,7 @@ mod tests {
         let pose = Pose::new([0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
         let want = (0..sc.len())
             .filter(|&k| {
-                let c = sc.centers[k];
+                let c = sc.centers.get(k);
                 let d = [c[0] - 0.5, c[1], c[2]];
                 (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() < 1.0
             })
