@@ -21,6 +21,7 @@ pub mod nufft;
 pub mod obj;
 pub mod phase;
 pub mod pose;
+mod prefetch;
 pub mod pulse;
 pub mod scene;
 pub mod simulate;
