@@ -498,16 +498,8 @@ pub(crate) fn classify_candidates(
         let run = |v: &Vec<f64>| -> [f64; CB] {
             v[first..first + CB].try_into().expect("a run of CB leaves")
         };
-        let (cx, cy, cz) = (
-            run(&scene.centers.x),
-            run(&scene.centers.y),
-            run(&scene.centers.z),
-        );
-        (g.nx, g.ny, g.nz) = (
-            run(&scene.normals.x),
-            run(&scene.normals.y),
-            run(&scene.normals.z),
-        );
+        let (cx, cy, cz) = (run(&c.x), run(&c.y), run(&c.z));
+        (g.nx, g.ny, g.nz) = (run(&nv.x), run(&nv.y), run(&nv.z));
         for k in 0..CB {
             (g.dx[k], g.dy[k], g.dz[k]) = (cx[k] - p[0], cy[k] - p[1], cz[k] - p[2]);
         }
