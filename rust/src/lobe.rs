@@ -850,6 +850,52 @@ mod tests {
         out
     }
 
+    /// The node test is conservative: a box it calls `Outside` holds no counting point, and
+    /// one it calls `Inside` holds only counting points. Boxes of 1 cm - 3 m at directions
+    /// within 120 degrees of the beam and ranges 5 cm - 15 m (many on the lobe's edge), for
+    /// every sonar of `sonars()`, with and without the angular pre-test; 40 points per box,
+    /// its corners among them.
+    #[test]
+    fn the_node_test_never_contradicts_the_exact_test_of_a_point_in_the_box() {
+        let mut u = crate::test_util::uniforms(11);
+        let pose = Pose::new([0.3, -0.2, 1.0], [1.0, 0.4, 0.1], [0.0, 0.0, 1.0]).unwrap();
+        let (mut outside, mut inside) = (0, 0);
+        for sonar in sonars() {
+            let bound = AngularBound::new(&sonar, &pose);
+            for _ in 0..3000 {
+                let (th, ph) = (120f64.to_radians() * u(), 2.0 * PI * u());
+                let (st, ct) = th.sin_cos();
+                let r = 0.05 * 300f64.powf(u());
+                let c: V3 = std::array::from_fn(|i| {
+                    pose.position[i]
+                        + r * (ct * pose.forward[i]
+                            + st * (ph.cos() * pose.left[i] + ph.sin() * pose.up[i]))
+                });
+                let half: V3 = std::array::from_fn(|_| 0.005 * 300f64.powf(u()));
+                let (lo, hi) = (sub(c, half), std::array::from_fn(|i| c[i] + half[i]));
+                for b in [bound.as_ref(), None] {
+                    let verdict = test_box(&sonar, &pose, b, lo, hi);
+                    outside += usize::from(verdict == BoxTest::Outside);
+                    inside += usize::from(verdict == BoxTest::Inside);
+                    for k in 0..40 {
+                        let x: V3 = std::array::from_fn(|i| {
+                            let t = if k < 8 { ((k >> i) & 1) as f64 } else { u() };
+                            lo[i] + t * (hi[i] - lo[i])
+                        });
+                        let counts = matches!(classify(&sonar, &pose, x), Decision::In(_));
+                        match verdict {
+                            BoxTest::Outside => assert!(!counts, "{x:?} counts in {lo:?}..{hi:?}"),
+                            BoxTest::Inside => assert!(counts, "{x:?} fails in {lo:?}..{hi:?}"),
+                            BoxTest::Partial => {}
+                        }
+                    }
+                }
+            }
+        }
+        // (both verdicts are exercised)
+        assert!(outside > 1000 && inside > 100, "outside {outside}, inside {inside}");
+    }
+
     /// A block of lanes: directions within 100 degrees of `forward`, ranges 5 cm - 12 m
     /// (log-uniform) times `scale`, random unit normals (some exactly edge-on or facing).
     fn block(u: &mut impl FnMut() -> f64, pose: &Pose, scale: f64) -> Gathered {
