@@ -901,7 +901,10 @@ mod tests {
             }
         }
         // (both verdicts are exercised)
-        assert!(outside > 1000 && inside > 100, "outside {outside}, inside {inside}");
+        assert!(
+            outside > 1000 && inside > 100,
+            "outside {outside}, inside {inside}"
+        );
     }
 
     /// A block of lanes: directions within 100 degrees of `forward`, ranges 5 cm - 12 m
