@@ -490,12 +490,6 @@ pub(crate) fn classify_candidates(
     let sp = &sonar.params;
     let n = cands.len();
     let mut g = Gathered::default();
-    let mut gather = |k: usize, i: usize| {
-        let c = scene.centers.get(i);
-        let nv = scene.normals.get(i);
-        (g.dx[k], g.dy[k], g.dz[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
-        (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
-    };
     if consecutive && n == CB {
         // a run of stored leaves: plain loads, no gather
         let first = cands[0] as usize;
@@ -513,7 +507,10 @@ pub(crate) fn classify_candidates(
         }
     } else {
         for k in 0..CB {
-            gather(k, cands[k.min(n - 1)] as usize);
+            let i = cands[k.min(n - 1)] as usize;
+            let (c, nv) = (scene.centers.get(i), scene.normals.get(i));
+            (g.dx[k], g.dy[k], g.dz[k]) = (c[0] - p[0], c[1] - p[1], c[2] - p[2]);
+            (g.nx[k], g.ny[k], g.nz[k]) = (nv[0], nv[1], nv[2]);
         }
     }
     // the range exactly as `classify` computes it
