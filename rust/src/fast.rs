@@ -1710,15 +1710,17 @@ pub(crate) fn spread_pass(
 /// values.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn channel_sum(grids: &[Vec<f64>], span: std::ops::Range<usize>) -> Vec<Complex64> {
-    let mut acc = grids[0][span.clone()].to_vec();
+    let mut acc: Vec<Complex64> = grids[0][span.clone()]
+        .chunks_exact(2)
+        .map(|v| Complex64::new(v[0], v[1]))
+        .collect();
     for g in &grids[1..] {
-        for (a, v) in acc.iter_mut().zip(&g[span.clone()]) {
-            *a += v;
+        for (a, v) in acc.iter_mut().zip(g[span.clone()].chunks_exact(2)) {
+            a.re += v[0];
+            a.im += v[1];
         }
     }
-    acc.chunks_exact(2)
-        .map(|v| Complex64::new(v[0], v[1]))
-        .collect()
+    acc
 }
 
 /// The windowed band spectrum from the tasks' spread grids (their sum, one NUFFT per
@@ -1744,16 +1746,32 @@ pub(crate) fn finish_grids(
         })
         .collect();
     grids.into_iter().for_each(give_grid);
-    let mut re = vec![0.0; m];
-    let mut im = vec![0.0; m];
-    for j in 0..m {
-        let row = &plan.lagrange[j * p..(j + 1) * p];
-        let mut acc = Complex64::new(direct.0[j], direct.1[j]);
-        for c in 0..p {
-            acc += modes[c][j] * row[c];
+    lagrange_sum(sonar, plan, &modes, direct)
+}
+
+/// `window (direct + sum_c L_c modes_c)` at each band bin, the channels added in order.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn lagrange_sum(
+    sonar: &Sonar,
+    plan: &FastPlan,
+    modes: &[Vec<Complex64>],
+    (mut re, mut im): (Vec<f64>, Vec<f64>),
+) -> (Vec<f64>, Vec<f64>) {
+    let m = sonar.n_bins();
+    let row = m + LB;
+    re.truncate(m);
+    im.truncate(m);
+    for (c, mc) in modes.iter().enumerate() {
+        let lt = &plan.lagrange_t[c * row..c * row + m];
+        for (((r, i), z), &l) in re.iter_mut().zip(im.iter_mut()).zip(mc).zip(lt) {
+            // (a product, then a sum: not fused)
+            *r += z.re * l;
+            *i += z.im * l;
         }
-        re[j] = acc.re * sonar.window[j];
-        im[j] = acc.im * sonar.window[j];
+    }
+    for ((r, i), &w) in re.iter_mut().zip(im.iter_mut()).zip(&sonar.window) {
+        *r *= w;
+        *i *= w;
     }
     (re, im)
 }

@@ -16,6 +16,11 @@ use rustfft::{Fft, FftPlanner};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
+thread_local! {
+    /// The FFTs' scratch space, per thread.
+    static FFT_SCRATCH: std::cell::RefCell<Vec<Complex64>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// Widest kernel (reached for eps <= 1e-15).
 pub const MAX_W: usize = 16;
 
@@ -250,7 +255,12 @@ impl Type1Plan {
             grid[pad + j] += hi;
         }
         let g = &mut grid[pad..pad + nf];
-        self.fft.process(g);
+        // (the scratch is kept per thread: a fresh one per call was an allocation and a
+        // zeroing per channel)
+        FFT_SCRATCH.with_borrow_mut(|scratch| {
+            scratch.resize(self.fft.get_inplace_scratch_len(), Complex64::new(0.0, 0.0));
+            self.fft.process_with_scratch(g, scratch);
+        });
         // Mode k = i - modes/2 sits at k mod nf: the negative ones at the grid's end.
         let half = self.modes / 2;
         let (neg, nonneg) = out.split_at_mut(half);
