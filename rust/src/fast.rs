@@ -148,9 +148,8 @@ pub struct FastPlan {
     pub(crate) nodes: NodeTables,
     /// `c_{P-1} = sum_q cheb_last[q] F_q`.
     cheb_last: Vec<f64>,
-    /// `l_q(t_m)`, row-major (M, P), divided by `k_m` where the channels carry `k F`.
-    lagrange: Vec<f64>,
-    /// The same by node, row-major (P, M + LB), zero past the band: whole vectors of bins.
+    /// `l_q(t_m)`, divided by `k_m` where the channels carry `k F`, by node: row-major
+    /// (P, M + LB), zero past the band (whole vectors of bins).
     lagrange_t: Vec<f64>,
     /// The nodes' band-bin positions.
     node_x: Vec<f64>,
@@ -244,7 +243,6 @@ impl FastPlan {
             p,
             nodes,
             cheb_last,
-            lagrange,
             lagrange_t,
             node_x,
             k_top,
