@@ -296,7 +296,7 @@ pub fn fast_pulse(
                 kinked.extend_from_slice(k);
                 exact.extend_from_slice(e);
             }
-            leftover_pass(sonar, plan, &deferred, &kinked, &exact)
+            leftover_pass(sonar, plan, &deferred, &kinked, &exact, None)
         },
         || {
             let mut directs = directs.into_iter();

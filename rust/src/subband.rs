@@ -20,10 +20,14 @@
 //! sub-bands are added into the band in order.
 
 use crate::error::Result;
-use crate::fast::{choose_nodes_from, chunk_len, fast_sum_fixed, K_FACTOR_TOL};
-use crate::sonar::{Sonar, Window};
+use crate::fast::{
+    choose_nodes_from, chunk_len, fast_sum_fixed, finish_grids, spread_task, Direct, FastPlan,
+    K_FACTOR_TOL,
+};
+use crate::sonar::{LeafModel, Sonar, Window};
 use crate::spectrum::LeafTerm;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Bins per sub-band, about (measured against 150: the same at 1e6 leaves, 2-3 % faster at 1e5,
 /// where each sub-band's fixed cost shows).
@@ -121,6 +125,109 @@ impl SubBands {
             }
         }
         Ok((re, im))
+    }
+}
+
+/// The sub-bands with their plans at one node count, for the kinked leaves of a fast pass:
+/// each task spreads its own onto sub-band grids of its own ([`KinkPass::spread`]), beside
+/// its share of the band, and the pass adds the tasks' shares ([`KinkPass::finish`]). (Left
+/// to a later pass, these leaves were its bulk at 1e5 leaves and ran after the band's tasks.)
+pub(crate) struct KinkPass {
+    subs: Arc<SubBands>,
+    plans: Vec<Arc<FastPlan>>,
+}
+
+/// One task's kinked leaves on the sub-bands: per sub-band, None where none of them is live
+/// there, else its spread grid and its direct bins (the leaves it could not take summed
+/// exactly there).
+pub(crate) struct KinkedShare {
+    bands: Vec<Option<(Vec<f64>, Direct)>>,
+}
+
+impl KinkPass {
+    /// For `sonar`'s paper-model fast passes at `tol` with `p` nodes: the sub-bands take the
+    /// same count (capped at their worst case), the count chosen for the band's leaves. None
+    /// where the band has no sub-bands or the model is not the paper's.
+    pub(crate) fn new(sonar: &Sonar, tol: f64, p: usize) -> Option<KinkPass> {
+        if sonar.params.leaf_model != LeafModel::Paper {
+            return None;
+        }
+        KinkPass::with_nodes(sonar.sub_bands()?, tol, p).ok()
+    }
+
+    fn with_nodes(subs: Arc<SubBands>, tol: f64, p: usize) -> Result<KinkPass> {
+        let plans = subs
+            .bands
+            .iter()
+            .map(|(_, sub)| {
+                let most = sub.fast_plans.get(sub, tol)?.p;
+                sub.fast_plans.get_with_nodes(sub, tol, p.min(most))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(KinkPass { subs, plans })
+    }
+
+    /// One task's kinked leaves (in its order) onto its sub-band grids: each sub-band takes
+    /// the leaves live somewhere in it.
+    pub(crate) fn spread(&self, leaves: &[KinkedLeaf]) -> KinkedShare {
+        let bands = self
+            .subs
+            .bands
+            .iter()
+            .zip(&self.plans)
+            .map(|((lo, sub), plan)| {
+                let (terms, floors) = live_before(leaves, lo + sub.n_bins());
+                (!terms.is_empty()).then(|| spread_task(sub, plan, &terms, &floors))
+            })
+            .collect();
+        KinkedShare { bands }
+    }
+
+    /// The windowed band spectrum (of `sonar`, whose sub-bands these are) of the tasks'
+    /// shares (in task order; None where no task had a kinked leaf): per sub-band, its grids
+    /// and direct bins summed in that order, its transforms, the sub-bands added in order.
+    pub(crate) fn finish(
+        &self,
+        sonar: &Sonar,
+        shares: Vec<KinkedShare>,
+    ) -> Option<(Vec<f64>, Vec<f64>)> {
+        let nb = self.subs.bands.len();
+        let mut per_band: Vec<(Vec<Vec<f64>>, Option<Direct>)> =
+            (0..nb).map(|_| (Vec::new(), None)).collect();
+        for share in shares {
+            for ((grids, direct), band) in per_band.iter_mut().zip(share.bands) {
+                if let Some((g, d)) = band {
+                    grids.push(g);
+                    match direct {
+                        Some(acc) => acc.add(&d),
+                        None => *direct = Some(d),
+                    }
+                }
+            }
+        }
+        if per_band.iter().all(|(g, _)| g.is_empty()) {
+            return None;
+        }
+        let parts: Vec<Option<(Vec<f64>, Vec<f64>)>> = per_band
+            .into_par_iter()
+            .zip(&self.subs.bands)
+            .zip(&self.plans)
+            .with_max_len(1)
+            .map(|(((grids, direct), (_, sub)), plan)| {
+                let d = direct?;
+                Some(finish_grids(sub, plan, grids, (d.re, d.im)))
+            })
+            .collect();
+        let m = sonar.n_bins();
+        let (mut re, mut im) = (vec![0.0; m], vec![0.0; m]);
+        for ((lo, _), part) in self.subs.bands.iter().zip(parts) {
+            let Some((pr, pi)) = part else { continue };
+            for j in 0..pr.len() {
+                re[lo + j] += sonar.window[lo + j] * pr[j];
+                im[lo + j] += sonar.window[lo + j] * pi[j];
+            }
+        }
+        Some((re, im))
     }
 }
 
@@ -345,7 +452,7 @@ mod tests {
         let n = terms.len();
         for (b, (lo, sub)) in subs.bands.iter().enumerate() {
             let plan = sub.fast_plans.get_with_nodes(sub, 1e-6, p).unwrap();
-            let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024);
+            let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024, None);
             // (in the last sub-band, leaves whose corner lies there have a small value at the
             // top bin, the floor of their budget)
             let most = if b + 1 == subs.bands.len() {
