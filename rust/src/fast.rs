@@ -23,8 +23,9 @@
 //! the factor's zero side is the shorter, `g` goes through the NUFFT like any leaf and its
 //! interpolant is subtracted, bin by bin, on the zero side; when the live side is the
 //! shorter, the interpolant is added there instead. See [`paper_batch`]. Kinked leaves that
-//! fail a first pass's check go to sub-bands ([`crate::subband`], via [`leftover_pass`]),
-//! where they need far fewer nodes.
+//! fail a first pass's check go to sub-bands ([`crate::subband`]), where they need far fewer
+//! nodes: in the first pass's own tasks where it has few ([`KINKED_IN_TASKS_UP_TO`]), else in
+//! a later pass ([`leftover_pass`]).
 
 use crate::error::{invalid, Result};
 use crate::kernel::{

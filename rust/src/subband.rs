@@ -16,8 +16,14 @@
 //! leaf's check there is against its peak over the whole band ([`top_bin_magnitude`]), so the
 //! error bound is the full band's.
 //!
+//! The sub-band sums come in two forms. [`SubBands::kinked_sum`] takes the leaves a whole
+//! first pass left, after it; [`KinkPass`] lets each task of a first pass spread its own kinked
+//! leaves onto sub-band grids of its own, which the pass then adds (used for passes of few
+//! tasks, where a later pass would run mostly alone after them).
+//!
 //! Determinism: each sub-band takes the leaves live in it in the callers' order, and the
-//! sub-bands are added into the band in order.
+//! sub-bands are added into the band in order; a [`KinkPass`]'s tasks are those of the first
+//! pass (a function of the leaf count), added in task order.
 
 use crate::error::Result;
 use crate::fast::{
