@@ -8,6 +8,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod absorption;
+pub mod aligned;
 pub mod beam;
 pub mod candidates;
 pub mod erf_table;

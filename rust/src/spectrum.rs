@@ -5,6 +5,7 @@
 //! partial sums are added in chunk order. The grouping depends only on the member list, never
 //! on the number of threads, so results are bit-identical for any `RAYON_NUM_THREADS`.
 
+use crate::aligned::Aligned;
 use crate::kernel;
 use crate::lobe::Member;
 use crate::scene::Scene;
@@ -103,53 +104,33 @@ pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     (re, im)
 }
 
-/// `n` zeroed accumulator bins whose first lies on a 64-byte boundary, as the buffer and the
-/// offset of the first bin in it. The exact kernel reads and writes each bin once per leaf in
-/// whole vectors; where the bins straddle cache lines (as the allocator happens to place them),
-/// every one of those loads and stores touches two lines (measured: 3-6 % of a 1e5-leaf sum).
-fn aligned_bins(n: usize) -> (Vec<f64>, usize) {
-    let buf = vec![0.0; n + 7];
-    let off = buf.as_ptr().align_offset(64).min(7);
-    (buf, off)
-}
-
 /// The band spectrum of the given leaf terms without the window, summed in their order.
 pub fn sum_terms_unwindowed(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let m_pad = sonar.tables.m_pad;
-    let ((mut re, ro), (mut im, io)) = (aligned_bins(m_pad), aligned_bins(m_pad));
+    // (accumulators on cache lines: see `crate::aligned`)
+    let (mut re, mut im) = (Aligned::zeros(m_pad), Aligned::zeros(m_pad));
     if terms.len() <= LEAF_CHUNK {
-        chunk_sum(
-            sonar,
-            terms,
-            &mut re[ro..ro + m_pad],
-            &mut im[io..io + m_pad],
-        );
+        chunk_sum(sonar, terms, &mut re, &mut im);
     } else {
         for batch in terms.chunks(LEAF_CHUNK * BATCH) {
-            let partials: Vec<_> = batch
+            let partials: Vec<(Aligned, Aligned)> = batch
                 .par_chunks(LEAF_CHUNK)
                 .map(|chunk| {
-                    let ((mut pr, pro), (mut pi, pio)) = (aligned_bins(m_pad), aligned_bins(m_pad));
-                    chunk_sum(
-                        sonar,
-                        chunk,
-                        &mut pr[pro..pro + m_pad],
-                        &mut pi[pio..pio + m_pad],
-                    );
-                    ((pr, pro), (pi, pio))
+                    let (mut pr, mut pi) = (Aligned::zeros(m_pad), Aligned::zeros(m_pad));
+                    chunk_sum(sonar, chunk, &mut pr, &mut pi);
+                    (pr, pi)
                 })
                 .collect();
-            for ((pr, pro), (pi, pio)) in &partials {
+            for (pr, pi) in &partials {
                 for j in 0..m {
-                    re[ro + j] += pr[pro + j];
-                    im[io + j] += pi[pio + j];
+                    re[j] += pr[j];
+                    im[j] += pi[j];
                 }
             }
         }
     }
-    re.drain(..ro);
-    im.drain(..io);
+    let (mut re, mut im) = (re.into_vec(), im.into_vec());
     re.truncate(m);
     im.truncate(m);
     (re, im)
