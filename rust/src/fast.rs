@@ -1897,14 +1897,19 @@ mod tests {
         // Many leaves: several parallel chunks; the result must not depend on the thread count,
         // which only changes who computes each chunk.
         let t = terms(FAST_CHUNK * 2 + 123);
-        let s = sonar(None, LeafModel::Paper);
-        let plan = FastPlan::new(&s, 1e-6).unwrap();
-        let a = fast_sum_terms(&s, &plan, &t);
+        assert_same_bits_on_one_and_two_threads(&sonar(None, LeafModel::Paper), &t);
+    }
+
+    /// `fast_sum_terms` at `tol = 1e-6` gives the same bits on the global pool (two threads)
+    /// and on a pool of one.
+    fn assert_same_bits_on_one_and_two_threads(s: &Sonar, t: &[LeafTerm]) {
+        let plan = FastPlan::new(s, 1e-6).unwrap();
+        let a = fast_sum_terms(s, &plan, t);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap();
-        let b = pool.install(|| fast_sum_terms(&s, &plan, &t));
+        let b = pool.install(|| fast_sum_terms(s, &plan, t));
         assert_eq!(a, b);
     }
 
@@ -2013,15 +2018,7 @@ mod tests {
     #[test]
     fn kinked_leaves_spread_in_the_tasks_are_bit_identical_for_one_and_two_threads() {
         let s = sonar(None, LeafModel::Paper);
-        let t = few_task_terms(&s);
-        let plan = FastPlan::new(&s, 1e-6).unwrap();
-        let a = fast_sum_terms(&s, &plan, &t);
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap();
-        let b = pool.install(|| fast_sum_terms(&s, &plan, &t));
-        assert_eq!(a, b);
+        assert_same_bits_on_one_and_two_threads(&s, &few_task_terms(&s));
     }
 
     #[test]
