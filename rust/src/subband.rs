@@ -110,27 +110,37 @@ impl SubBands {
         tol: f64,
         leaves: &[KinkedLeaf],
     ) -> Result<(Vec<f64>, Vec<f64>)> {
-        let m = sonar.n_bins();
         let p = self.node_count(tol, leaves)?;
-        let parts: Vec<Result<(Vec<f64>, Vec<f64>)>> = self
+        let parts = self
             .bands
             .par_iter()
             .with_max_len(1)
             .map(|(lo, sub)| {
                 // a sub-band's leaves: those live somewhere in it, in the callers' order
                 let (terms, floors) = live_before(leaves, lo + sub.n_bins());
-                band_sum(sub, tol, p, &terms, &floors)
+                band_sum(sub, tol, p, &terms, &floors).map(Some)
             })
-            .collect();
+            .collect::<Result<Vec<_>>>()?;
+        Ok(self.in_band(sonar, parts))
+    }
+
+    /// The sub-bands' spectra (rectangular window; None for a sub-band with none) added into
+    /// the band of `sonar`, whose window they take, in order.
+    fn in_band(
+        &self,
+        sonar: &Sonar,
+        parts: Vec<Option<(Vec<f64>, Vec<f64>)>>,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let m = sonar.n_bins();
         let (mut re, mut im) = (vec![0.0; m], vec![0.0; m]);
         for ((lo, _), part) in self.bands.iter().zip(parts) {
-            let (pr, pi) = part?;
+            let Some((pr, pi)) = part else { continue };
             for j in 0..pr.len() {
                 re[lo + j] += sonar.window[lo + j] * pr[j];
                 im[lo + j] += sonar.window[lo + j] * pi[j];
             }
         }
-        Ok((re, im))
+        (re, im)
     }
 }
 
@@ -158,10 +168,7 @@ impl KinkPass {
         if sonar.params.leaf_model != LeafModel::Paper {
             return None;
         }
-        KinkPass::with_nodes(sonar.sub_bands()?, tol, p).ok()
-    }
-
-    fn with_nodes(subs: Arc<SubBands>, tol: f64, p: usize) -> Result<KinkPass> {
+        let subs = sonar.sub_bands()?;
         let plans = subs
             .bands
             .iter()
@@ -169,8 +176,9 @@ impl KinkPass {
                 let most = sub.fast_plans.get(sub, tol)?.p;
                 sub.fast_plans.get_with_nodes(sub, tol, p.min(most))
             })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(KinkPass { subs, plans })
+            .collect::<Result<Vec<_>>>()
+            .ok()?;
+        Some(KinkPass { subs, plans })
     }
 
     /// One task's kinked leaves (in its order) onto its sub-band grids: each sub-band takes
@@ -224,16 +232,7 @@ impl KinkPass {
                 Some(finish_grids(sub, plan, grids, (d.re, d.im)))
             })
             .collect();
-        let m = sonar.n_bins();
-        let (mut re, mut im) = (vec![0.0; m], vec![0.0; m]);
-        for ((lo, _), part) in self.subs.bands.iter().zip(parts) {
-            let Some((pr, pi)) = part else { continue };
-            for j in 0..pr.len() {
-                re[lo + j] += sonar.window[lo + j] * pr[j];
-                im[lo + j] += sonar.window[lo + j] * pi[j];
-            }
-        }
-        Some((re, im))
+        Some(self.subs.in_band(sonar, parts))
     }
 }
 
