@@ -657,10 +657,11 @@ fn erf_at_nodes<const N: usize, const K: usize>(
     }
     // (g0, g1) now hold E g_(n-1), E g_n
     for n in 1..K - 1 {
-        let inv = 1.0 / (n + 1) as f64;
+        let m2inv = -2.0 / (n + 1) as f64;
         let inv2 = 1.0 / (n + 2) as f64;
         for i in 0..LB {
-            let g2 = -2.0 * zc[i].mul_add(g1[i], g0[i]) * inv;
+            // one FMA on the chain through g1 (g0's product is off it)
+            let g2 = (m2inv * zc[i]).mul_add(g1[i], m2inv * g0[i]);
             c[n + 1][i] = g2 * inv2;
             g0[i] = g1[i];
             g1[i] = g2;
