@@ -429,15 +429,21 @@ fn spread_channels<const WS2: usize>(
     sr: impl Fn(usize) -> f64,
     si: impl Fn(usize) -> f64,
 ) {
+    // (one bounds check per leaf: each channel's run lies in its plane)
+    let a = 2 * l0;
+    assert!(a + WS2 <= 2 * glen);
+    let p = p.min(MAX_NODES);
+    let mut rest = grid;
     for c in 0..p {
+        let (plane, tail) = rest.split_at_mut(2 * glen);
+        rest = tail;
         let (r, i) = (sr(c), si(c));
         let mut s = [0.0; WS2];
         #[allow(clippy::needless_range_loop)]
         for t in 0..WS2 {
             s[t] = if t % 2 == 0 { r } else { i };
         }
-        let a = 2 * (c * glen + l0);
-        let run: &mut [f64; WS2] = (&mut grid[a..a + WS2]).try_into().unwrap();
+        let run: &mut [f64; WS2] = (&mut plane[a..a + WS2]).try_into().unwrap();
         for t in 0..WS2 {
             run[t] = w2[t].mul_add(s[t], run[t]);
         }
