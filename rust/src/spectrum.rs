@@ -19,6 +19,7 @@ const BATCH: usize = 256;
 
 /// Per-leaf quantities the kernels need, in SI units.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct LeafTerm {
     /// `g G / r^2` (or `g G` without spreading).
     pub amp: f64,
