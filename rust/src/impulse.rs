@@ -29,7 +29,7 @@ pub fn impulse_from_band(n: usize, k0: usize, re: &[f64], im: &[f64], out: &mut 
     }
     // As NumPy does: the imaginary parts of DC and (for even n) Nyquist are ignored.
     spec[0].im = 0.0;
-    if n % 2 == 0 {
+    if n.is_multiple_of(2) {
         let last = spec.len() - 1;
         spec[last].im = 0.0;
     }

@@ -742,7 +742,7 @@ fn accumulate_block(
     re_b: &mut [f64; LANES],
     im_b: &mut [f64; LANES],
 ) {
-    if anchor || j0 % ANCHOR_BINS == 0 {
+    if anchor || j0.is_multiple_of(ANCHOR_BINS) {
         let z0 = cis_neg(q.frac_at(k0 + j0 as f64));
         for i in 0..LANES {
             (zr[i], zi[i]) = cmul(z0, pw[i]);
