@@ -464,7 +464,11 @@ fn spread_one(
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     let (r, i) = (|c: usize| sr[c], |c: usize| si[c]);
     match plan.nufft.w {
-        0..=8 => {
+        8 => {
+            let w = &weights4_mirror(&plan.nufft.mirror, [u; 4])[0];
+            spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
+        }
+        0..=7 => {
             let w = &weights4::<8>(h, [u; 4])[0];
             spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
         }
@@ -500,6 +504,32 @@ fn weights4<const WS: usize>(h: &[[f64; MAX_W]], u: [f64; 4]) -> [[f64; WS]; 4] 
     a
 }
 
+/// [`weights4`] for an eight-tap kernel from its mirror form ([`Type1Plan::mirror`]): one
+/// Horner chain in `v^2` gives the even and odd parts of taps 0-3 side by side, and
+/// `E + v O`, `E - v O` are taps `j` and `7 - j`.
+#[inline(always)]
+fn weights4_mirror(m: &[[f64; 8]], u: [f64; 4]) -> [[f64; 8]; 4] {
+    let v: [f64; 4] = std::array::from_fn(|k| u[k] - 0.5);
+    let mut b = [[0.0f64; 8]; 4];
+    for c in m.iter().rev() {
+        for k in 0..4 {
+            let v2 = v[k] * v[k];
+            for t in 0..8 {
+                b[k][t] = b[k][t].mul_add(v2, c[t]);
+            }
+        }
+    }
+    std::array::from_fn(|k| {
+        std::array::from_fn(|t| {
+            if t < 4 {
+                b[k][t + 4].mul_add(v[k], b[k][t])
+            } else {
+                (-b[k][11 - t]).mul_add(v[k], b[k][7 - t])
+            }
+        })
+    })
+}
+
 /// Spread a batch of leaves (lanes): each live lane's strengths `sr[c][i] + j si[c][i]` times
 /// its kernel weights at offset `u[i]`, from grid index `l0[i]`.
 #[inline(always)]
@@ -514,8 +544,9 @@ fn spread_lanes(
     live: &[bool; LB],
 ) {
     match plan.nufft.w {
-        0..=8 => spread_lanes_ws::<8, 16>(plan, grid, u, l0, sr, si, live),
-        _ => spread_lanes_ws::<16, 32>(plan, grid, u, l0, sr, si, live),
+        8 => spread_lanes_ws::<8, 16, true>(plan, grid, u, l0, sr, si, live),
+        0..=7 => spread_lanes_ws::<8, 16, false>(plan, grid, u, l0, sr, si, live),
+        _ => spread_lanes_ws::<16, 32, false>(plan, grid, u, l0, sr, si, live),
     }
 }
 
@@ -523,7 +554,7 @@ fn spread_lanes(
 /// lanes at a time first (four independent Horner chains), then their spreading.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn spread_lanes_ws<const WS: usize, const WS2: usize>(
+fn spread_lanes_ws<const WS: usize, const WS2: usize, const MIRROR: bool>(
     plan: &FastPlan,
     grid: &mut [f64],
     u: &[f64; LB],
@@ -534,7 +565,13 @@ fn spread_lanes_ws<const WS: usize, const WS2: usize>(
 ) {
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     for i0 in (0..LB).step_by(4) {
-        let a = weights4::<WS>(h, [u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]]);
+        let u4 = [u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]];
+        let a: [[f64; WS]; 4] = if MIRROR {
+            let m = weights4_mirror(&plan.nufft.mirror, u4);
+            std::array::from_fn(|k| std::array::from_fn(|t| if t < 8 { m[k][t] } else { 0.0 }))
+        } else {
+            weights4::<WS>(h, u4)
+        };
         for (k, w) in a.iter().enumerate() {
             let i = i0 + k;
             if live[i] {
@@ -2207,6 +2244,29 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn mirror_weights_match_the_horner_weights_of_an_eight_tap_kernel() {
+        let plan = Type1Plan::new(1201, 2e-7).unwrap();
+        assert_eq!(plan.w, 8);
+        let mut worst: f64 = 0.0;
+        for k in 0..2000 {
+            let u = [
+                k as f64 / 2000.0,
+                0.5,
+                1.0 - k as f64 / 2000.0,
+                (k as f64 * 0.37) % 1.0,
+            ];
+            let want = weights4::<8>(&plan.horner, u);
+            let got = weights4_mirror(&plan.mirror, u);
+            for (g, w) in got.iter().zip(&want) {
+                for t in 0..8 {
+                    worst = worst.max((g[t] - w[t]).abs());
+                }
+            }
+        }
+        assert!(worst <= 1e-15, "{worst:e}");
     }
 
     #[cfg(target_arch = "x86_64")]

@@ -92,6 +92,29 @@ fn kernel_polynomials(w: usize, beta: f64) -> Vec<[f64; MAX_W]> {
     coef
 }
 
+/// [`Type1Plan::mirror`] from the monomial coefficients in `u` of an eight-tap kernel: each
+/// of taps 0-3 shifted to `v = u - 1/2` (exact Taylor shift, `binomial(d, i) (1/2)^(d-i)`)
+/// and split into even and odd powers.
+fn mirror_polynomials(coef: &[[f64; MAX_W]]) -> Vec<[f64; 8]> {
+    let n = coef.len();
+    let mut rows = vec![[0.0f64; 8]; n.div_ceil(2)];
+    for j in 0..4 {
+        // c'_i = sum_d coef[d][j] binom(d, i) 2^-(d - i)
+        for i in 0..n {
+            let mut acc = 0.0;
+            for (d, row) in coef.iter().enumerate().skip(i) {
+                let mut b = 1.0;
+                for t in 0..i {
+                    b = b * (d - t) as f64 / (t + 1) as f64;
+                }
+                acc += row[j] * b * 0.5f64.powi((d - i) as i32);
+            }
+            rows[i / 2][j + 4 * (i % 2)] = acc;
+        }
+    }
+    rows
+}
+
 /// Monomial coefficients of the polynomial through `(x_k, y_k)` (Newton divided differences;
 /// well conditioned enough on [0, 1] for the degrees used here).
 fn solve_vandermonde(x: &[f64], y: &[f64]) -> Vec<f64> {
@@ -152,6 +175,11 @@ pub struct Type1Plan {
     /// Piecewise-polynomial kernel (as FINUFFT evaluates it): `weight_j(u) =
     /// sum_d horner[d][j] u^d` for the point's offset `u` in [0, 1) from its first grid point.
     pub horner: Vec<[f64; MAX_W]>,
+    /// For `w = 8` (else empty): the same polynomials in `v = u - 1/2`, split by parity, for
+    /// the four mirror pairs of taps (`weight_(7-j)(u) = weight_j(1 - u)`, as the kernel is
+    /// even): row `i` holds `[E_0 .. E_3, O_0 .. O_3]`, the coefficients of `v^(2i)` of
+    /// `weight_j = E_j(v^2) + v O_j(v^2)`. Half the Horner steps of `horner`.
+    pub mirror: Vec<[f64; 8]>,
     fft: Arc<dyn Fft<f64>>,
 }
 
@@ -194,6 +222,11 @@ impl Type1Plan {
             pad: MAX_W,
             correction,
             horner: kernel_polynomials(w, beta),
+            mirror: if w == 8 {
+                mirror_polynomials(&kernel_polynomials(w, beta))
+            } else {
+                Vec::new()
+            },
             fft,
         })
     }
