@@ -1098,22 +1098,30 @@ pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafT
             paper_nodes::<false>(plan, args.0, args.1, args.2, args.3, args.4, args.5, &mut s)
         }
         let (fr, fi) = (&s.fr, &s.fi);
-        for i in 0..batch.len() {
-            let peak = (0..p).fold(0.0f64, |m, q| m.max(fr[q][i].abs()).max(fi[q][i].abs()));
-            // the last coefficient above 2 tol peak decides: P must reach one past it
-            let mut last = 0;
-            for (d, row) in tdq.iter().enumerate().take(p).skip(1) {
-                let (mut cr, mut ci) = (0.0, 0.0);
-                for q in 0..p {
-                    cr += row[q] * fr[q][i];
-                    ci += row[q] * fi[q][i];
-                }
-                if (cr.abs().max(ci.abs()) * 2.0 / p as f64) > 2.0 * plan.tol * peak {
-                    last = d;
+        // (lanes = leaves, so that the DCT vectorises)
+        let mut peak = [0.0f64; LB];
+        for q in 0..p {
+            for i in 0..LB {
+                peak[i] = peak[i].max(fr[q][i].abs()).max(fi[q][i].abs());
+            }
+        }
+        // the last coefficient above 2 tol peak decides: P must reach one past it
+        let mut last = [0usize; LB];
+        for (d, row) in tdq.iter().enumerate().take(p).skip(1) {
+            let (mut cr, mut ci) = ([0.0f64; LB], [0.0f64; LB]);
+            for q in 0..p {
+                for i in 0..LB {
+                    cr[i] += row[q] * fr[q][i];
+                    ci[i] += row[q] * fi[q][i];
                 }
             }
-            need.push((last + 2).min(p));
+            for i in 0..LB {
+                if (cr[i].abs().max(ci[i].abs()) * 2.0 / p as f64) > 2.0 * plan.tol * peak[i] {
+                    last[i] = d;
+                }
+            }
         }
+        need.extend(last[..batch.len()].iter().map(|&l| (l + 2).min(p)));
     }
     // Expected cost per leaf of P nodes (in units of about 1 ns): node values and spreading grow
     // with P; a leaf that needs more goes to a second pass at the plan's full node count.
