@@ -464,12 +464,12 @@ fn spread_one(
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     let (r, i) = (|c: usize| sr[c], |c: usize| si[c]);
     match plan.nufft.w {
-        8 => {
-            let w = &weights4_mirror(&plan.nufft.mirror, [u; 4])[0];
-            spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
-        }
-        0..=7 => {
-            let w = &weights4::<8>(h, [u; 4])[0];
+        w @ 0..=8 => {
+            let w = &if w == 8 {
+                weights4_mirror(&plan.nufft.mirror, [u; 4])
+            } else {
+                weights4::<8>(h, [u; 4])
+            }[0];
             spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
         }
         _ => {
@@ -510,12 +510,12 @@ fn weights4<const WS: usize>(h: &[[f64; MAX_W]], u: [f64; 4]) -> [[f64; WS]; 4] 
 #[inline(always)]
 fn weights4_mirror(m: &[[f64; 8]], u: [f64; 4]) -> [[f64; 8]; 4] {
     let v: [f64; 4] = std::array::from_fn(|k| u[k] - 0.5);
+    let v2 = v.map(|x| x * x);
     let mut b = [[0.0f64; 8]; 4];
     for c in m.iter().rev() {
         for k in 0..4 {
-            let v2 = v[k] * v[k];
             for t in 0..8 {
-                b[k][t] = b[k][t].mul_add(v2, c[t]);
+                b[k][t] = b[k][t].mul_add(v2[k], c[t]);
             }
         }
     }
@@ -563,6 +563,7 @@ fn spread_lanes_ws<const WS: usize, const WS2: usize, const MIRROR: bool>(
     si: &[[f64; LB]; MAX_NODES],
     live: &[bool; LB],
 ) {
+    const { assert!(!MIRROR || WS == 8) };
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     for i0 in (0..LB).step_by(4) {
         let u4 = [u[i0], u[i0 + 1], u[i0 + 2], u[i0 + 3]];

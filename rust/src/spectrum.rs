@@ -120,7 +120,7 @@ pub fn sum_terms_unwindowed(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec
         let mut partials: Vec<(Aligned, Aligned)> = Vec::new();
         for batch in terms.chunks(LEAF_CHUNK * BATCH) {
             let n = batch.len().div_ceil(LEAF_CHUNK);
-            let fresh = partials.len();
+            let used = partials.len();
             while partials.len() < n {
                 partials.push((Aligned::zeros(m_pad), Aligned::zeros(m_pad)));
             }
@@ -129,8 +129,8 @@ pub fn sum_terms_unwindowed(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec
                 .zip(batch.par_chunks(LEAF_CHUNK))
                 .enumerate()
                 .for_each(|(c, ((pr, pi), chunk))| {
-                    // (those used by an earlier batch)
-                    if c < fresh {
+                    // (those an earlier batch used)
+                    if c < used {
                         pr.fill(0.0);
                         pi.fill(0.0);
                     }
