@@ -214,6 +214,12 @@ impl Type1Plan {
             })
             .collect();
         let fft = FftPlanner::<f64>::new().plan_fft_forward(nf);
+        let horner = kernel_polynomials(w, beta);
+        let mirror = if w == 8 {
+            mirror_polynomials(&horner)
+        } else {
+            Vec::new()
+        };
         Ok(Type1Plan {
             modes,
             nf,
@@ -221,12 +227,8 @@ impl Type1Plan {
             beta,
             pad: MAX_W,
             correction,
-            horner: kernel_polynomials(w, beta),
-            mirror: if w == 8 {
-                mirror_polynomials(&kernel_polynomials(w, beta))
-            } else {
-                Vec::new()
-            },
+            horner,
+            mirror,
             fft,
         })
     }
