@@ -89,8 +89,11 @@ const GRID_POOL_BYTES: usize = 64 << 20;
 /// A zeroed spread grid of `len` values (reused when one is kept).
 pub(crate) fn take_grid(len: usize) -> Vec<f64> {
     let reused = {
+        // (the latest kept grid that is long enough: the pool holds grids of several sizes,
+        // band and sub-band, and growing a short one reallocates, copies and page-faults)
         let mut pool = GRID_POOL.lock().unwrap_or_else(|e| e.into_inner());
-        let g = pool.0.pop();
+        let at = pool.0.iter().rposition(|g| g.capacity() >= len);
+        let g = at.map(|i| pool.0.swap_remove(i));
         if let Some(g) = &g {
             pool.1 -= g.capacity() * 8;
         }
