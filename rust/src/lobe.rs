@@ -388,7 +388,7 @@ const AMBIGUOUS: f64 = 1e-11;
 pub(crate) const CB: usize = 16;
 
 /// What the exact test says about each lane of a block of up to [`CB`] candidates.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct BlockView {
     /// Per lane: 0 out, 1 in, 2 within [`AMBIGUOUS`] of the reach or [`CONE_AMBIGUOUS`] of
     /// the cone's edge (decide with [`classify`]).
@@ -485,7 +485,8 @@ pub(crate) fn classify_candidates(
     cands: &[u32],
     consecutive: bool,
     too_close: &mut Option<(usize, f64)>,
-) -> (BlockView, [f64; CB]) {
+    v: &mut BlockView,
+) -> [f64; CB] {
     let p = pose.position;
     let sp = &sonar.params;
     let n = cands.len();
@@ -517,7 +518,12 @@ pub(crate) fn classify_candidates(
     for k in 0..CB {
         g.r[k] = (g.dx[k] * g.dx[k] + g.dy[k] * g.dy[k] + g.dz[k] * g.dz[k]).sqrt();
     }
-    let inside = g.r.map(|r| r >= sp.min_range && r <= sonar.range_limit);
+    // (a loop, not `map`: the generic `map` was an out-of-line call, compiled for baseline
+    // x86-64, in the fused pulse's AVX-512 clone)
+    let mut inside = [false; CB];
+    for (ok, &r) in inside.iter_mut().zip(&g.r) {
+        *ok = r >= sp.min_range && r <= sonar.range_limit;
+    }
     if g.r.iter().any(|&r| !(r >= sp.min_range)) {
         for (k, &i) in cands.iter().enumerate() {
             if !(g.r[k] >= sp.min_range) {
@@ -528,19 +534,29 @@ pub(crate) fn classify_candidates(
             }
         }
     }
-    let mut v = classify_lanes(sonar, pose, &g, n);
+    classify_lanes_into(sonar, pose, &g, n, v);
     for (verdict, ok) in v.verdict.iter_mut().zip(inside) {
         if !ok {
             *verdict = 0;
         }
     }
-    (v, g.r)
+    g.r
 }
 
 /// [`classify_block`] on gathered lanes (`n` of them real; the rest repeat the last).
 /// Branch-free loops over the lanes (each vectorises).
 #[inline(always)]
 fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockView {
+    let mut v = BlockView::default();
+    classify_lanes_into(sonar, pose, g, n, &mut v);
+    v
+}
+
+/// [`classify_lanes`] into `v` (every field written). The fused pulse keeps one view per
+/// task: a view returned by value (528 bytes) was copied twice per block, each copy a call
+/// to `memcpy` after a `vzeroupper`.
+#[inline(always)]
+fn classify_lanes_into(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize, v: &mut BlockView) {
     let (d, u, l) = (pose.forward, pose.up, pose.left);
     let sp = &sonar.params;
     let detectable = matches!(sp.lobe, LobeRule::Detectable { .. });
@@ -608,13 +624,8 @@ fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockVi
             inv_r[k] = 1.0 / r[k];
         }
     }
-    let mut v = BlockView {
-        verdict: [0; CB],
-        gain: [0.0; CB],
-        beta: [0.0; CB],
-        cos_beta: [0.0; CB],
-        sin_beta: [0.0; CB],
-    };
+    v.verdict = [0; CB];
+    v.gain = [0.0; CB];
     let (mut az, mut el) = ([0.0; CB], [0.0; CB]);
     for k in 0..CB {
         az[k] = atan2_from_ratio(pl[k], pd[k], t_az[k]);
@@ -682,7 +693,6 @@ fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize) -> BlockVi
             }
         }
     }
-    v
 }
 
 /// `|e x n|` and `e . n` of each lane, with `e(k)` the lane's direction (any scale).

@@ -21,7 +21,7 @@ use crate::fast::{
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of};
-use crate::lobe::{bvh_candidates, classify_candidates, classify_member, Search};
+use crate::lobe::{bvh_candidates, classify_candidates, classify_member, BlockView, Search};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
@@ -105,9 +105,17 @@ fn pulse_chunk(
         lanes.n = 0;
     };
     let mut blocks = cands.blocks(span);
+    let mut v = BlockView::default();
     while let Some((block, consecutive)) = blocks.next_block() {
-        let (v, range) =
-            classify_candidates(scene, sonar, pose, block, consecutive, &mut part.too_close);
+        let range = classify_candidates(
+            scene,
+            sonar,
+            pose,
+            block,
+            consecutive,
+            &mut part.too_close,
+            &mut v,
+        );
         if !paper {
             for (k, &i) in block.iter().enumerate() {
                 let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) else {
@@ -190,8 +198,9 @@ fn pulse_chunk(
 fn sample_terms(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &[u32]) -> Vec<LeafTerm> {
     let mut out = Vec::with_capacity(cands.len());
     let mut too_close = None; // (reported by the pass itself)
+    let mut v = BlockView::default();
     for block in cands.chunks(crate::lobe::CB) {
-        let (v, range) = classify_candidates(scene, sonar, pose, block, false, &mut too_close);
+        let range = classify_candidates(scene, sonar, pose, block, false, &mut too_close, &mut v);
         for (k, &i) in block.iter().enumerate() {
             if let Some(mb) = v.member(k, i, range[k], scene, sonar, pose) {
                 out.push(leaf_term(sonar, scene, &mb));
