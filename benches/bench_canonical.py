@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import platform
 import statistics
 import time
 
@@ -33,6 +34,31 @@ def warm_median(fn, n):
     return out, statistics.median(times)
 
 
+def machine() -> str:
+    """The machine a figure was measured on: CPU model (and x86 family/model), AVX-512 or
+    AVX2, logical CPUs, threads used, date (UTC) and batecho's version. The lent machine
+    changes between sessions, and figures from different CPUs do not compare."""
+    info = {}
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                k, _, v = line.partition(":")
+                info.setdefault(k.strip(), v.strip())
+    except OSError:
+        pass
+    flags = set(info.get("flags", "").split())
+    isa = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
+    cpu = info.get("model name") or platform.processor() or platform.machine()
+    if "cpu family" in info:
+        cpu += f" (family {info['cpu family']}, model {info.get('model', '?')})"
+    threads = os.environ.get("RAYON_NUM_THREADS", str(os.cpu_count()))
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    return (
+        f"{cpu}, {isa}, {os.cpu_count()} logical CPUs, {threads} threads; {when}; "
+        f"batecho {batecho.__version__}"
+    )
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -50,6 +76,7 @@ def main():
         ref_t.append(t)
     err = np.linalg.norm(fast.spectrum - slow.spectrum) / np.linalg.norm(slow.spectrum)
     m = int(fast.n_leaves[0])
+    print(f"machine: {machine()}")
     print(
         f"canonical scene: {len(leaves)} leaves, {m} in the lobe, {sonar.n_bins} bins, "
         f"threads={os.environ.get('RAYON_NUM_THREADS', os.cpu_count())}"

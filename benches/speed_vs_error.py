@@ -21,7 +21,9 @@ import os
 from pathlib import Path
 
 import numpy as np
-from bench_canonical import warm_median  # the same warm-repeat median (benches/ is on sys.path)
+
+# the same warm-repeat median and machine line (benches/ is on sys.path)
+from bench_canonical import machine, warm_median
 
 import batecho
 
@@ -99,7 +101,12 @@ def main() -> None:
         for x in r[1:]:
             cells.append(f"{x['t'] * 1e3:.2f} ({x['err']:.0e}, {ex['t'] / x['t']:.0f}x)")
         lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "Cells: time (measured error, speed-up over exact)."]
+    lines += [
+        "",
+        "Cells: time (measured error, speed-up over exact).",
+        "",
+        f"Machine: {machine()}.",
+    ]
     (out / "speed_vs_error.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
