@@ -475,8 +475,9 @@ struct Gathered {
 
 /// The whole exact test for up to [`CB`] candidates, the range pass included (the fused
 /// pulse's path: no list of in-range candidates): as [`near_candidates`] then
-/// [`classify_block`], with the lanes' ranges in `r`. Lanes outside `[min_range,
-/// range_limit]` are out; the smallest caller index of a too-close leaf goes to `too_close`.
+/// [`classify_block`], the view written into `v` and the lanes' ranges returned. Lanes
+/// outside `[min_range, range_limit]` are out; the smallest caller index of a too-close leaf
+/// goes to `too_close`.
 #[inline(always)]
 pub(crate) fn classify_candidates(
     scene: &Scene,
