@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import statistics
 import time
 
@@ -21,6 +20,7 @@ import numpy as np
 import batecho
 from batecho import reference
 from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+from batecho.paper import machine_info
 
 
 def warm_median(fn, n):
@@ -35,27 +35,20 @@ def warm_median(fn, n):
 
 
 def machine() -> str:
-    """The machine a figure was measured on: CPU model (and x86 family/model), AVX-512 or
-    AVX2, logical CPUs, threads used, date (UTC) and batecho's version. The lent machine
-    changes between sessions, and figures from different CPUs do not compare."""
-    info = {}
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                k, _, v = line.partition(":")
-                info.setdefault(k.strip(), v.strip())
-    except OSError:
-        pass
-    flags = set(info.get("flags", "").split())
-    isa = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
-    cpu = info.get("model name") or platform.processor() or platform.machine()
-    if "cpu family" in info:
-        cpu += f" (family {info['cpu family']}, model {info.get('model', '?')})"
-    threads = os.environ.get("RAYON_NUM_THREADS", str(os.cpu_count()))
+    """The machine a figure was measured on, as one line (from batecho.paper.machine_info):
+    CPU model with x86 family/model, vector instructions, logical CPUs, threads, date (UTC)
+    and batecho's version. The lent machine changes between sessions, and figures from
+    different CPUs do not compare."""
+    m = machine_info()
+    cpu = m["cpu"]
+    if m["cpu_family_model"]:
+        family, _, model = m["cpu_family_model"].partition("/")
+        cpu += f" (family {family}, model {model})"
+    threads = os.environ.get("RAYON_NUM_THREADS", str(m["usable_cpus"]))
     when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     return (
-        f"{cpu}, {isa}, {os.cpu_count()} logical CPUs, {threads} threads; {when}; "
-        f"batecho {batecho.__version__}"
+        f"{cpu}, {m['vector_isa'] or 'no AVX2'}, {m['cpu_count']} logical CPUs, "
+        f"{threads} threads; {when}; batecho {m['batecho']}"
     )
 
 

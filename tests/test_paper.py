@@ -19,6 +19,7 @@ from batecho.paper import (
     Table1Result,
     draw_tree_positions,
     forest_available,
+    machine_info,
     make_forest,
     paper_figures,
     table1,
@@ -179,6 +180,24 @@ def test_table1_forest_depends_on_seed_and_tree_count_only():
 def test_table1_records_the_machine_and_the_tree_model(small_table):
     s = small_table.settings
     assert s["machine"]["cpu_count"] >= 1 and s["tree"]["function"].startswith("batecho.trees.")
+
+
+def test_machine_info_names_the_cpu_family_model_and_vector_instructions():
+    m = machine_info()
+    assert m["vector_isa"] in ("AVX-512", "AVX2", None)
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            text = fh.read()
+    except OSError:
+        pytest.skip("no /proc/cpuinfo")
+    fields = dict(
+        (k.strip(), v.strip())
+        for k, _, v in (line.partition(":") for line in text.split("\n\n")[0].splitlines())
+    )
+    if "cpu family" in fields:
+        assert m["cpu_family_model"] == f"{fields['cpu family']}/{fields['model']}"
+    flags = fields.get("flags", "").split()
+    assert (m["vector_isa"] == "AVX-512") == ("avx512f" in flags)
 
 
 # --------------------------------------------------------------------------- figures

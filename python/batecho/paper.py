@@ -212,18 +212,25 @@ def _jsonable(x: Any) -> Any:
 
 
 def machine_info() -> dict[str, Any]:
-    """Where a timing ran: CPU model and count, threads, OS, Python, NumPy and batecho versions."""
+    """Where a timing ran: CPU model (with its x86 family and model, and the widest vector
+    instructions batecho dispatches to), CPU count, threads, OS, Python, NumPy and batecho
+    versions. Lent machines change CPU between runs, and timings from different CPUs do not
+    compare."""
     from . import _core
 
-    cpu = platform.processor() or ""
+    info: dict[str, str] = {}
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:
             for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
+                if not line.strip():
+                    break  # the first processor's entry is enough
+                key, _, value = line.partition(":")
+                info.setdefault(key.strip(), value.strip())
     except OSError:
         pass
+    cpu = info.get("model name") or platform.processor() or ""
+    flags = set(info.get("flags", "").split())
+    vector = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else None
     try:
         usable = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not on Linux
@@ -234,6 +241,10 @@ def machine_info() -> dict[str, Any]:
         load = None
     return {
         "cpu": cpu or "unknown",
+        "cpu_family_model": (
+            f"{info['cpu family']}/{info.get('model', '?')}" if "cpu family" in info else None
+        ),
+        "vector_isa": vector,
         "load_average_1_5_15min": load,
         "cpu_count": os.cpu_count(),
         "usable_cpus": usable,
