@@ -37,6 +37,18 @@ def test_auto_record_gives_the_echo_of_the_same_fixed_record():
     assert auto.impulse.shape == (1, auto.sonar.n_samples) == fixed.impulse.shape
 
 
+def test_auto_record_reuses_its_resolved_sonar_and_so_its_plans_across_calls():
+    leaves = leaves_at([0.7, 2.2, 4.1, 6.0])
+    sonar = Sonar(n_samples="auto")
+    first = simulate(leaves, sonar, AXIS, method="fast", tol=1e-6)
+    again = simulate(leaves, sonar, AXIS, method="fast", tol=1e-6)
+    assert again.sonar is first.sonar
+    assert again.spectrum.tobytes() == first.spectrum.tobytes()
+    assert sonar.resolve(first.sonar.n_samples) is first.sonar
+    other = sonar.resolve(first.sonar.n_samples + 2)
+    assert other is not first.sonar and other.n_samples == first.sonar.n_samples + 2
+
+
 def test_auto_record_takes_the_farthest_leaf_over_all_poses():
     leaves = leaves_at([1.0, 9.0])
     poses = Poses([[0.0, 0, 0], [8.5, 0, 0]], [1.0, 0, 0])
