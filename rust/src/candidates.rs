@@ -47,6 +47,13 @@ impl Candidates {
         }
     }
 
+    /// Append `other`'s candidates, in order (as if its runs were pushed here one by one).
+    pub fn append(&mut self, other: &Candidates) {
+        for &(lo, hi) in &other.runs {
+            self.push_run(lo, hi);
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.len
     }

@@ -4,7 +4,7 @@
 use crate::error::{invalid, Result};
 use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::impulse::impulse_from_band;
-use crate::lobe::{members, members_of, Search};
+use crate::lobe::{farthest_member_range, members_of, Search};
 use crate::pose::Pose;
 use crate::pulse::{candidates, fast_pulse};
 use crate::scene::Scene;
@@ -47,14 +47,14 @@ pub fn farthest_members(
     poses: &[Pose],
     search: Search,
 ) -> Result<Vec<f64>> {
+    if rayon::current_thread_index().is_none() {
+        // (on a pool thread, as `simulate`)
+        return rayon::scope(|_| farthest_members(scene, sonar, poses, search));
+    }
     poses
         .par_iter()
         .enumerate()
-        .map(|(i, pose)| {
-            Ok(members(scene, sonar, pose, i, search)?
-                .iter()
-                .fold(0.0f64, |m, mb| m.max(mb.range)))
-        })
+        .map(|(i, pose)| farthest_member_range(scene, sonar, pose, i, search))
         .collect()
 }
 
@@ -98,6 +98,12 @@ pub fn simulate(
     search: Search,
     method: Method,
 ) -> Result<Echoes> {
+    if rayon::current_thread_index().is_none() {
+        // Called from outside the pool: run on a pool thread. A parallel iterator over one
+        // pose runs that pose on the calling thread, where the BVH walk cannot split (see
+        // `bvh_candidates`): for a detectable 30° lobe over 1e6 leaves, 12 ms of a 27 ms pulse.
+        return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method));
+    }
     check_leaf_sizes(scene, sonar)?;
     let plan = match method {
         Method::Exact => None,
