@@ -816,6 +816,14 @@ pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32)
     }
 }
 
+/// The range (m) of stored leaf `i` from the pose, exactly as [`classify`] computes it.
+#[inline(always)]
+fn leaf_range(scene: &Scene, pose: &Pose, i: u32) -> f64 {
+    let (c, p) = (scene.centers.get(i as usize), pose.position);
+    let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+    (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt()
+}
+
 /// Pass 1 of the exact test, cheap: the range of every candidate (the same operations as
 /// [`classify`]). Candidates within `[min_range, range_limit]` go to `near`; the smallest index
 /// of a too-close leaf (the caller's index, with its range) is kept in `too_close`.
@@ -828,12 +836,9 @@ pub(crate) fn near_candidates(
     near: &mut Vec<(u32, f64)>,
     too_close: &mut Option<(usize, f64)>,
 ) {
-    let p = pose.position;
     let sp = &sonar.params;
     for &i in chunk {
-        let c = scene.centers.get(i as usize);
-        let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-        let r = (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt();
+        let r = leaf_range(scene, pose, i);
         if !(r >= sp.min_range) {
             let id = scene.ids[i as usize] as usize;
             if too_close.is_none_or(|(j, _)| id < j) {
@@ -935,16 +940,10 @@ pub fn farthest_member_range(
 ) -> Result<f64> {
     let sp = &sonar.params;
     let ids = crate::pulse::candidates(scene, sonar, pose, search).to_vec();
-    let p = pose.position;
-    // the range exactly as `classify` (and `near_candidates`) compute it
     let ranges: Vec<f64> = ids
         .par_iter()
         .with_min_len(CLASSIFY_CHUNK)
-        .map(|&i| {
-            let c = scene.centers.get(i as usize);
-            let dx = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-            (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]).sqrt()
-        })
+        .map(|&i| leaf_range(scene, pose, i))
         .collect();
     if sp.too_close == TooClose::Error && ranges.par_iter().any(|&r| !(r >= sp.min_range)) {
         // (the error exactly as `members` reports it)
