@@ -146,8 +146,13 @@ fn pulse_chunk(
         };
         // A block is a batch as it stands where it can be (`ready_whole`); otherwise each
         // counting leaf goes its route.
-        let out = v.verdict.map(|x| x == 0);
-        let inside = v.verdict.map(|x| x == 1);
+        // (loops, not `map`: the generic `map` was an out-of-line call, compiled for baseline
+        // x86-64, ~2 % of a 1e6-leaf pulse)
+        let (mut out, mut inside) = ([false; LB], [false; LB]);
+        for k in 0..LB {
+            out[k] = v.verdict[k] == 0;
+            inside[k] = v.verdict[k] == 1;
+        }
         if bl.ready_whole(sonar, &out, &inside) {
             part.count += inside.iter().map(|&x| u64::from(x)).sum::<u64>();
             flush(&mut bl, &mut part);
