@@ -2,7 +2,8 @@
 //! - the spectrum kernel for 1e3, 1e4, 1e5 leaves at 1201 bins (MODEL.md defaults);
 //! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force;
 //! - one whole fast pulse (lobe query and spectrum, tol 1e-6) with 1e5 and 1e6 leaves in the
-//!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first.
+//!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
+//! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order.
 
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
 use batecho::lobe::{members, Search};
@@ -11,7 +12,7 @@ use batecho::pulse::{candidates, fast_pulse};
 use batecho::scene::Scene;
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
-use batecho::spectrum::{sum_terms, LeafTerm};
+use batecho::spectrum::{leaf_term, sum_terms, LeafTerm};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 
@@ -181,6 +182,21 @@ fn bench_pulse(c: &mut Criterion) {
             })
         });
     }
+    g.finish();
+    // The spectrum kernels alone on the terms of 1e5 leaves in the lobe, in the order a lobe
+    // query gives them (the scene's BVH order: neighbours in space, so in delay), against
+    // `spectrum_exact` / `spectrum_fast`, whose terms come in random order.
+    let scene = box_scene(100_000);
+    let mem = members(&scene, &s, &pose, 0, Search::Bvh).unwrap();
+    let t: Vec<LeafTerm> = mem.iter().map(|mb| leaf_term(&s, &scene, mb)).collect();
+    let mut g = c.benchmark_group("spectrum_lobe_order");
+    g.sample_size(10);
+    g.bench_function(BenchmarkId::new("exact", t.len()), |b| {
+        b.iter(|| black_box(sum_terms(&s, &t)))
+    });
+    g.bench_function(BenchmarkId::new("fast_tol1e-6", t.len()), |b| {
+        b.iter(|| black_box(fast_sum_terms(&s, &plan, &t)))
+    });
     g.finish();
 }
 
