@@ -1983,10 +1983,8 @@ impl TaskCount {
             rayon::spawn(move || {
                 let t0 = std::time::Instant::now();
                 let own = rayon::current_thread_index() == owner;
-                while !over.load(Acquire)
-                    && !(own && done.load(Acquire) >= n)
-                    && t0.elapsed() < AWAKE_WAIT
-                {
+                let ended = || over.load(Acquire) || (own && done.load(Acquire) >= n);
+                while !ended() && t0.elapsed() < AWAKE_WAIT {
                     for _ in 0..32 {
                         std::hint::spin_loop();
                     }
