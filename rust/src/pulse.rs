@@ -18,7 +18,7 @@ use crate::error::{Error, Result};
 use crate::fast::{
     beside_leftovers, choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch,
     paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
-    TaskCount, ADAPT_MIN_LEAVES, LB, NOT_KINKED,
+    ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::kernel::{paper_regime, paper_regime_of};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, BlockView, Search};
@@ -229,22 +229,8 @@ pub fn fast_pulse(
         // Called from outside the pool: run the pulse on a pool thread, so that its parallel
         // steps follow one another there (from outside, each step is injected into the pool
         // and this thread sleeps and wakes in between: ~0.6 ms of a 1e6-leaf pulse).
-        return rayon::scope(|_| fast_pulse_in(scene, sonar, plan, pose, pose_index, cands, true));
+        return rayon::scope(|_| fast_pulse(scene, sonar, plan, pose, pose_index, cands));
     }
-    fast_pulse_in(scene, sonar, plan, pose, pose_index, cands, false)
-}
-
-/// [`fast_pulse`] on a pool thread; `alone`: the pulse is the pool's only work (see
-/// [`TaskCount::new`]).
-pub(crate) fn fast_pulse_in(
-    scene: &Scene,
-    sonar: &Sonar,
-    plan: &FastPlan,
-    pose: &Pose,
-    pose_index: usize,
-    cands: &Candidates,
-    alone: bool,
-) -> Result<(Vec<f64>, Vec<f64>, u64)> {
     // The node count, from a sample of the counting leaves (see `fast::choose_nodes`).
     let small_plan;
     let first: &FastPlan =
@@ -272,20 +258,17 @@ pub(crate) fn fast_pulse_in(
         };
     let n = cands.len();
     let cl = chunk_len(n, first.nufft.nf);
-    let tasks = TaskCount::new(n.div_ceil(cl), alone);
     let parts: Vec<Part> = (0..n.div_ceil(cl))
         .into_par_iter()
         .map(|c| {
-            tasks.run(|| {
-                pulse_chunk(
-                    scene,
-                    sonar,
-                    pose,
-                    first,
-                    cands,
-                    c * cl..n.min((c + 1) * cl),
-                )
-            })
+            pulse_chunk(
+                scene,
+                sonar,
+                pose,
+                first,
+                cands,
+                c * cl..n.min((c + 1) * cl),
+            )
         })
         .collect();
     if sonar.params.too_close == TooClose::Error {
@@ -318,9 +301,7 @@ pub(crate) fn fast_pulse_in(
         left_over.push((part.deferred, part.kinked, part.exact));
     }
     // The leaves the first pass left run beside the sum of the chunks' grids and the first
-    // pass's transforms (each parallel inside); each side gathers its own inputs. (The pass
-    // is over: a thread kept awake for it stops, to take one side.)
-    drop(tasks);
+    // pass's transforms (each parallel inside); each side gathers its own inputs.
     let (re, im) = beside_leftovers(
         || {
             let (mut deferred, mut kinked, mut exact) = (Vec::new(), Vec::new(), Vec::new());

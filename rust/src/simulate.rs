@@ -6,7 +6,7 @@ use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::impulse::impulse_from_band;
 use crate::lobe::{farthest_member_range, members_of, Search};
 use crate::pose::Pose;
-use crate::pulse::{candidates, fast_pulse_in};
+use crate::pulse::{candidates, fast_pulse};
 use crate::scene::Scene;
 use crate::sonar::Sonar;
 use crate::spectrum::band_spectrum;
@@ -137,8 +137,7 @@ pub fn simulate(
                 _ => false,
             };
             let (re, im, count) = if let (true, Some(pl)) = (fused, &plan) {
-                // (one pose: its pulse is the pool's only work)
-                fast_pulse_in(scene, sonar, pl, pose, i, &cands, poses.len() == 1)?
+                fast_pulse(scene, sonar, pl, pose, i, &cands)?
             } else {
                 let mem = members_of(scene, sonar, pose, i, cands.to_vec())?;
                 let (re, im) = match &plan {
