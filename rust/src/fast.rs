@@ -1932,8 +1932,10 @@ fn spread_pass_tasks(
 /// ~30-50 us more for the sleeper to start: at 1e5 leaves in most calls, where the tasks end
 /// tens of microseconds apart (a 1e5-leaf `fast_sum_terms` took 1.79-1.87 ms with it against
 /// 1.96-2.19 ms without, in a timeline of three calls each). Only the order of events
-/// changes, never a result.
-pub(crate) struct TaskCount {
+/// changes, never a result. (The fused pulse does without: its tail is the kinked pass,
+/// ~1.7 ms at 1e6 leaves, beside which a wake costs little, and with a thread kept awake it
+/// measured 2-3 % slower.)
+struct TaskCount {
     n: usize,
     started: std::sync::atomic::AtomicUsize,
     done: std::sync::Arc<std::sync::atomic::AtomicUsize>,
@@ -1953,7 +1955,7 @@ impl TaskCount {
     /// `n` tasks, run from the pool thread that drops the count when the pass is over;
     /// `alone`: the pass is the pool's only work. (Where other work may be queued, such as
     /// the other poses of a flight, an idle thread must take that instead of waiting.)
-    pub(crate) fn new(n: usize, alone: bool) -> TaskCount {
+    fn new(n: usize, alone: bool) -> TaskCount {
         TaskCount {
             n,
             started: 0.into(),
@@ -1968,7 +1970,7 @@ impl TaskCount {
     /// task has started leaves a job behind that spins until the pass is over (at most
     /// [`AWAKE_WAIT`]; on the pass's own thread, should it take the job, until the tasks
     /// are done), so that it is awake for the work after the pass.
-    pub(crate) fn run<T>(&self, task: impl FnOnce() -> T) -> T {
+    fn run<T>(&self, task: impl FnOnce() -> T) -> T {
         use std::sync::atomic::Ordering::{Acquire, Relaxed, Release};
         self.started.fetch_add(1, Relaxed);
         let out = task();
