@@ -1739,7 +1739,7 @@ fn fast_sum_terms_in(
             let kink = (terms.len().div_ceil(chunk) <= KINKED_IN_TASKS_UP_TO)
                 .then(|| KinkPass::new(sonar, plan.tol, p))
                 .flatten();
-            let first = spread_pass_tasks(sonar, &smaller, terms, &[], chunk, kink.as_ref(), alone);
+            let first = spread_pass(sonar, &smaller, terms, &[], chunk, kink.as_ref(), alone);
             let retry: Vec<LeafTerm> = first.deferred.iter().map(|&i| terms[i]).collect();
             let exact: Vec<LeafTerm> = first.exact.iter().map(|&i| terms[i]).collect();
             let shares = kink.as_ref().map(|k| (k, first.shares));
@@ -1779,7 +1779,7 @@ pub(crate) fn fast_sum_fixed(
         kinked,
         exact,
         ..
-    } = spread_pass(sonar, plan, terms, floors, chunk, None);
+    } = spread_pass(sonar, plan, terms, floors, chunk, None, false);
     sums.add_exact(sonar, &rest_terms(terms, deferred, exact, &kinked));
     finish_grids(sonar, plan, grids, (sums.re, sums.im))
 }
@@ -1837,20 +1837,9 @@ pub(crate) struct Spread {
 }
 
 /// The spreading part of a fast pass ([`fast_sum_fixed`]): `chunk` leaves per task, the
-/// tasks' grids kept in task order.
+/// tasks' grids kept in task order; `alone`: the pass is the pool's only work (see
+/// [`TaskCount::new`]).
 pub(crate) fn spread_pass(
-    sonar: &Sonar,
-    plan: &FastPlan,
-    terms: &[LeafTerm],
-    floors: &[f64],
-    chunk: usize,
-    kink: Option<&KinkPass>,
-) -> Spread {
-    spread_pass_tasks(sonar, plan, terms, floors, chunk, kink, false)
-}
-
-/// [`spread_pass`]; `alone`: the pass is the pool's only work (see [`TaskCount::new`]).
-fn spread_pass_tasks(
     sonar: &Sonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
@@ -2196,6 +2185,7 @@ mod tests {
                     &[],
                     chunk_len(spread.len(), plan.nufft.nf),
                     None,
+                    false,
                 )
                 .deferred;
                 // (a few fail the check on their live side and are summed exactly)
@@ -2243,11 +2233,11 @@ mod tests {
         let chunk = chunk_len(t.len(), plan.nufft.nf);
         assert!(t.len().div_ceil(chunk) <= KINKED_IN_TASKS_UP_TO);
         let kink = KinkPass::new(&s, 1e-6, p).unwrap();
-        let f = spread_pass(&s, &plan, &t, &[], chunk, Some(&kink));
+        let f = spread_pass(&s, &plan, &t, &[], chunk, Some(&kink), false);
         // (none left for a later pass; one share per task)
         assert!(f.kinked.is_empty());
         assert_eq!(f.shares.len(), t.len().div_ceil(chunk));
-        let without = spread_pass(&s, &plan, &t, &[], chunk, None);
+        let without = spread_pass(&s, &plan, &t, &[], chunk, None, false);
         assert!(without.kinked.len() > 100, "{}", without.kinked.len());
     }
 
@@ -2340,7 +2330,7 @@ mod tests {
         );
         let plan = FastPlan::new(&s, 1e-6).unwrap();
         // several tasks, so that the indices cross task boundaries
-        let f = spread_pass(&s, &plan, &t, &[], 64, None);
+        let f = spread_pass(&s, &plan, &t, &[], 64, None, false);
         assert_eq!(f.exact, want);
         assert!(f.deferred.iter().all(|i| !routed(&t[*i])));
         // a whole pass sums both exactly: every leaf is counted once

@@ -457,7 +457,7 @@ mod tests {
         let n = terms.len();
         for (b, (lo, sub)) in subs.bands.iter().enumerate() {
             let plan = sub.fast_plans.get_with_nodes(sub, 1e-6, p).unwrap();
-            let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024, None);
+            let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024, None, false);
             // (in the last sub-band, leaves whose corner lies there have a small value at the
             // top bin, the floor of their budget)
             let most = if b + 1 == subs.bands.len() {
