@@ -378,12 +378,11 @@ pub(crate) fn po_leaf(sonar: &Sonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [
             }
             let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
             let (l0, u) = plan.nufft.offset(x);
-            let (mut sr, mut si) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
+            let mut sc = [[0.0; 2]; MAX_NODES];
             for c in 0..p {
-                sr[c] = fr[c] * pr - fi[c] * pi;
-                si[c] = fr[c] * pi + fi[c] * pr;
+                sc[c] = [fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr];
             }
-            spread_one(plan, grid, u, l0, &sr, &si);
+            spread_one(plan, grid, u, l0, &sc);
             true
         }
     }
@@ -420,8 +419,9 @@ const TERMS_AHEAD: usize = 128;
 pub(crate) const LB: usize = 16;
 
 /// Add one leaf's weighted strengths to every channel. Channel `c` is a run of complex values
-/// (real, imaginary interleaved) at `grid[2 c glen..]`; the leaf adds `w_j (sr[c] + j si[c])`
-/// to its points `l0 + j`: one contiguous run of `WS2` values per channel.
+/// (real, imaginary interleaved) at `grid[2 c glen..]`; the leaf adds `w_j s(c)` (`s(c)`: its
+/// strength there as `[re, im]`) to its points `l0 + j`: one contiguous run of `WS2` values per
+/// channel.
 #[inline(always)]
 fn spread_channels<const WS2: usize>(
     grid: &mut [f64],
@@ -429,43 +429,34 @@ fn spread_channels<const WS2: usize>(
     p: usize,
     l0: usize,
     w2: &[f64; WS2],
-    sr: impl Fn(usize) -> f64,
-    si: impl Fn(usize) -> f64,
+    s: impl Fn(usize) -> [f64; 2],
 ) {
-    // (one bounds check per leaf: each channel's run lies in its plane)
     let a = 2 * l0;
-    assert!(a + WS2 <= 2 * glen);
     let p = p.min(MAX_NODES);
-    let mut rest = grid;
+    if p == 0 {
+        return;
+    }
+    // One bounds check per leaf: every channel's run lies in its plane and the grid.
+    assert!(a + WS2 <= 2 * glen && 2 * glen * p <= grid.len());
+    let base = grid.as_mut_ptr();
     for c in 0..p {
-        let (plane, tail) = rest.split_at_mut(2 * glen);
-        rest = tail;
-        let (r, i) = (sr(c), si(c));
-        let mut s = [0.0; WS2];
-        #[allow(clippy::needless_range_loop)]
+        let [r, i] = s(c);
+        let sv: [f64; WS2] = std::array::from_fn(|t| if t % 2 == 0 { r } else { i });
+        // SAFETY: `2 c glen + a + WS2 <= 2 (c + 1) glen <= grid.len()` (asserted above), and
+        // `grid` is borrowed mutably for the whole call.
+        let run = unsafe { &mut *(base.add(2 * c * glen + a) as *mut [f64; WS2]) };
         for t in 0..WS2 {
-            s[t] = if t % 2 == 0 { r } else { i };
-        }
-        let run: &mut [f64; WS2] = (&mut plane[a..a + WS2]).try_into().unwrap();
-        for t in 0..WS2 {
-            run[t] = w2[t].mul_add(s[t], run[t]);
+            run[t] = w2[t].mul_add(sv[t], run[t]);
         }
     }
 }
 
-/// Spread one leaf at grid index `l0`, offset `u`: the strengths `sr + j si` (one per channel)
-/// times its kernel weights.
+/// Spread one leaf at grid index `l0`, offset `u`: its strengths `sc` (one `[re, im]` per
+/// channel) times its kernel weights.
 #[inline(always)]
-fn spread_one(
-    plan: &FastPlan,
-    grid: &mut [f64],
-    u: f64,
-    l0: usize,
-    sr: &[f64; MAX_NODES],
-    si: &[f64; MAX_NODES],
-) {
+fn spread_one(plan: &FastPlan, grid: &mut [f64], u: f64, l0: usize, sc: &[[f64; 2]; MAX_NODES]) {
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
-    let (r, i) = (|c: usize| sr[c], |c: usize| si[c]);
+    let s = |c: usize| sc[c];
     match plan.nufft.w {
         w @ 0..=8 => {
             let w = &if w == 8 {
@@ -473,11 +464,11 @@ fn spread_one(
             } else {
                 weights4::<8>(h, [u; 4])
             }[0];
-            spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
+            spread_channels::<16>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), s)
         }
         _ => {
             let w = &weights4::<16>(h, [u; 4])[0];
-            spread_channels::<32>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), r, i)
+            spread_channels::<32>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), s)
         }
     }
 }
@@ -533,8 +524,8 @@ fn weights4_mirror(m: &[[f64; 8]], u: [f64; 4]) -> [[f64; 8]; 4] {
     })
 }
 
-/// Spread a batch of leaves (lanes): each live lane's strengths `sr[c][i] + j si[c][i]` times
-/// its kernel weights at offset `u[i]`, from grid index `l0[i]`.
+/// Spread a batch of leaves (lanes): each live lane's strengths (`sc[c][2 i..2 i + 2]`, real
+/// and imaginary) times its kernel weights at offset `u[i]`, from grid index `l0[i]`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn spread_lanes(
@@ -542,14 +533,13 @@ fn spread_lanes(
     grid: &mut [f64],
     u: &[f64; LB],
     l0: &[usize; LB],
-    sr: &[[f64; LB]; MAX_NODES],
-    si: &[[f64; LB]; MAX_NODES],
+    sc: &[[f64; 2 * LB]; MAX_NODES],
     live: &[bool; LB],
 ) {
     match plan.nufft.w {
-        8 => spread_lanes_ws::<8, 16, true>(plan, grid, u, l0, sr, si, live),
-        0..=7 => spread_lanes_ws::<8, 16, false>(plan, grid, u, l0, sr, si, live),
-        _ => spread_lanes_ws::<16, 32, false>(plan, grid, u, l0, sr, si, live),
+        8 => spread_lanes_ws::<8, 16, true>(plan, grid, u, l0, sc, live),
+        0..=7 => spread_lanes_ws::<8, 16, false>(plan, grid, u, l0, sc, live),
+        _ => spread_lanes_ws::<16, 32, false>(plan, grid, u, l0, sc, live),
     }
 }
 
@@ -562,8 +552,7 @@ fn spread_lanes_ws<const WS: usize, const WS2: usize, const MIRROR: bool>(
     grid: &mut [f64],
     u: &[f64; LB],
     l0: &[usize; LB],
-    sr: &[[f64; LB]; MAX_NODES],
-    si: &[[f64; LB]; MAX_NODES],
+    sc: &[[f64; 2 * LB]; MAX_NODES],
     live: &[bool; LB],
 ) {
     const { assert!(!MIRROR || WS == 8) };
@@ -580,8 +569,8 @@ fn spread_lanes_ws<const WS: usize, const WS2: usize, const MIRROR: bool>(
             let i = i0 + k;
             if live[i] {
                 let w2: [f64; WS2] = std::array::from_fn(|t| w[t / 2]);
-                let (r, im) = (|c: usize| sr[c][i], |c: usize| si[c][i]);
-                spread_channels(grid, glen, p, l0[i], &w2, r, im);
+                let s = |c: usize| [sc[c][2 * i], sc[c][2 * i + 1]];
+                spread_channels(grid, glen, p, l0[i], &w2, s);
             }
         }
     }
@@ -630,9 +619,9 @@ pub(crate) struct BatchScratch {
     /// Node values of the leaf factor.
     fr: [[f64; LB]; MAX_NODES],
     fi: [[f64; LB]; MAX_NODES],
-    /// Strengths (node values times the phase).
-    sr: [[f64; LB]; MAX_NODES],
-    si: [[f64; LB]; MAX_NODES],
+    /// Strengths (node values times the phase), real and imaginary parts interleaved
+    /// (lane `i` at `2 i`, `2 i + 1`), as the spreading reads them.
+    sc: [[f64; 2 * LB]; MAX_NODES],
 }
 
 impl BatchScratch {
@@ -644,8 +633,7 @@ impl BatchScratch {
             ee: z,
             fr: z,
             fi: z,
-            sr: z,
-            si: z,
+            sc: [[0.0; 2 * LB]; MAX_NODES],
         })
     }
 }
@@ -1356,7 +1344,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         ..
     } = lanes;
     paper_nodes::<ATTEN>(plan, amp, range, beta, a, ap, aq, s);
-    let BatchScratch { fr, fi, sr, si, .. } = s;
+    let BatchScratch { fr, fi, sc, .. } = s;
     // Smoothness check per lane: the last Chebyshev coefficient against the lane's peak.
     let mut ok = [true; LB];
     let (mut lr, mut li, mut peak) = ([0.0; LB], [0.0; LB], [0.0f64; LB]);
@@ -1423,12 +1411,16 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         l0f[i] = left.ceil();
         u[i] = l0f[i] - left;
     }
-    // Strengths (node values times the phase), lanes = leaves.
-    for q in 0..p {
+    // Strengths (node values times the phase), lanes = leaves, then interleaved for the
+    // spreading (a loop writing `sc` directly was vectorised over nodes, with gathers and
+    // scatters).
+    for (q, row) in sc.iter_mut().enumerate().take(p) {
+        let (mut re, mut im) = ([0.0; LB], [0.0; LB]);
         for i in 0..LB {
-            sr[q][i] = fr[q][i].mul_add(pr[i], -fi[q][i] * pi[i]);
-            si[q][i] = fr[q][i].mul_add(pi[i], fi[q][i] * pr[i]);
+            re[i] = fr[q][i].mul_add(pr[i], -fi[q][i] * pi[i]);
+            im[i] = fr[q][i].mul_add(pi[i], fi[q][i] * pr[i]);
         }
+        *row = std::array::from_fn(|t| if t % 2 == 0 { re[t / 2] } else { im[t / 2] });
     }
     let mut out = Failures {
         defer: [false; LB],
@@ -1463,7 +1455,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         live[i] = true;
     }
     let l0: [usize; LB] = std::array::from_fn(|i| (l0f[i] as i64 + plan.nufft.pad as i64) as usize);
-    spread_lanes(plan, grid, &u, &l0, sr, si, &live);
+    spread_lanes(plan, grid, &u, &l0, sc, &live);
     out
 }
 
