@@ -1454,7 +1454,14 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         }
         live[i] = true;
     }
-    let l0: [usize; LB] = std::array::from_fn(|i| (l0f[i] as i64 + plan.nufft.pad as i64) as usize);
+    // (integers below 2^51 in size, converted exactly by the 1.5 2^52 shift: vector adds,
+    // where `as i64`, saturating, was scalar; a garbage index from a NaN fails the
+    // spreading's bounds check)
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let pad = plan.nufft.pad as f64;
+    let l0: [usize; LB] = std::array::from_fn(|i| {
+        ((l0f[i] + pad + SHIFT).to_bits() as i64).wrapping_sub(SHIFT.to_bits() as i64) as usize
+    });
     spread_lanes(plan, grid, &u, &l0, sc, &live);
     out
 }
