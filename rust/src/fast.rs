@@ -433,9 +433,6 @@ fn spread_channels<const WS2: usize>(
 ) {
     let a = 2 * l0;
     let p = p.min(MAX_NODES);
-    if p == 0 {
-        return;
-    }
     // One bounds check per leaf: every channel's run lies in its plane and the grid.
     assert!(a + WS2 <= 2 * glen && 2 * glen * p <= grid.len());
     let base = grid.as_mut_ptr();
@@ -1454,9 +1451,8 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         }
         live[i] = true;
     }
-    // (integers below 2^51 in size, converted exactly by the 1.5 2^52 shift: vector adds,
-    // where `as i64`, saturating, was scalar; a garbage index from a NaN fails the
-    // spreading's bounds check)
+    // (integers below 2^51 in size, finite as the ranges are, converted exactly by the
+    // 1.5 2^52 shift: vector adds, where `as i64`, saturating, was scalar)
     const SHIFT: f64 = 6_755_399_441_055_744.0;
     let pad = plan.nufft.pad as f64;
     let l0: [usize; LB] = std::array::from_fn(|i| {
