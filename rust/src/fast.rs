@@ -1969,28 +1969,27 @@ impl TaskCount {
         {
             let (n, done, over, owner) = (self.n, self.done.clone(), self.over.clone(), self.owner);
             rayon::spawn(move || {
-                let t0 = std::time::Instant::now();
                 let own = rayon::current_thread_index() == owner;
-                let ended = || over.load(Acquire) || (own && done.load(Acquire) >= n);
-                while !ended() && t0.elapsed() < AWAKE_WAIT {
-                    for _ in 0..32 {
-                        std::hint::spin_loop();
-                    }
-                }
+                spin_until(|| over.load(Acquire) || (own && done.load(Acquire) >= n));
             });
         } else if self.owner.is_some() && here == self.owner && self.started.load(Relaxed) == self.n
         {
             // The pass's own thread, its last task done while others still run: wait for them
             // awake (a pool thread waiting for a job slept and was woken 17-68 us after the
             // last task ended, in about half of the 1e5-leaf calls of a timeline).
-            let t0 = std::time::Instant::now();
-            while self.done.load(Acquire) < self.n && t0.elapsed() < AWAKE_WAIT {
-                for _ in 0..32 {
-                    std::hint::spin_loop();
-                }
-            }
+            spin_until(|| self.done.load(Acquire) >= self.n);
         }
         out
+    }
+}
+
+/// Spin until `ended` holds, at most [`AWAKE_WAIT`].
+fn spin_until(ended: impl Fn() -> bool) {
+    let t0 = std::time::Instant::now();
+    while !ended() && t0.elapsed() < AWAKE_WAIT {
+        for _ in 0..32 {
+            std::hint::spin_loop();
+        }
     }
 }
 
