@@ -85,8 +85,41 @@ pub fn sincos_unit_k<const KS: usize, const KC: usize>(e: f64) -> (f64, f64) {
 /// Taylor polynomial to degree 13 on |r| <= ln(2)/2.
 #[inline(always)]
 pub fn exp_nonpos(x: f64) -> f64 {
-    exp_nonpos_d::<13>(x)
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    const C: [f64; 14] = INV_FACT;
+    let x = x.clamp(-700.0, 0.0);
+    let n = (x * std::f64::consts::LOG2_E).round_ties_even();
+    let r = n.mul_add(-LN2_LO, n.mul_add(-LN2_HI, x));
+    // Estrin's scheme for the terms from r^2 on (a chain of 4 FMAs and the powers, where
+    // Horner's is 11 long: the lobe test's gains wait on it), Horner's for the last two
+    let (r2, r4) = (r * r, (r * r) * (r * r));
+    let q0 = C[5].mul_add(r, C[4]).mul_add(r2, C[3].mul_add(r, C[2]));
+    let q1 = C[9].mul_add(r, C[8]).mul_add(r2, C[7].mul_add(r, C[6]));
+    let q2 = C[13].mul_add(r, C[12]).mul_add(r2, C[11].mul_add(r, C[10]));
+    let high = q2.mul_add(r4, q1).mul_add(r4, q0);
+    let p = high.mul_add(r, C[1]).mul_add(r, C[0]);
+    let t = n + (1023.0 + 4_503_599_627_370_496.0);
+    p * f64::from_bits(t.to_bits() << 52)
 }
+
+/// `1 / k!`, k = 0..13.
+const INV_FACT: [f64; 14] = [
+    1.0,
+    1.0,
+    1.0 / 2.0,
+    1.0 / 6.0,
+    1.0 / 24.0,
+    1.0 / 120.0,
+    1.0 / 720.0,
+    1.0 / 5040.0,
+    1.0 / 40_320.0,
+    1.0 / 362_880.0,
+    1.0 / 3_628_800.0,
+    1.0 / 39_916_800.0,
+    1.0 / 479_001_600.0,
+    1.0 / 6_227_020_800.0,
+];
 
 /// [`exp_nonpos`] with a Taylor polynomial of degree `D` (D = 10: relative error < 4e-13).
 #[inline(always)]
@@ -94,22 +127,6 @@ pub fn exp_nonpos_d<const D: usize>(x: f64) -> f64 {
     const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     const LOG2E: f64 = std::f64::consts::LOG2_E;
-    const INV_FACT: [f64; 14] = [
-        1.0,
-        1.0,
-        1.0 / 2.0,
-        1.0 / 6.0,
-        1.0 / 24.0,
-        1.0 / 120.0,
-        1.0 / 720.0,
-        1.0 / 5040.0,
-        1.0 / 40_320.0,
-        1.0 / 362_880.0,
-        1.0 / 3_628_800.0,
-        1.0 / 39_916_800.0,
-        1.0 / 479_001_600.0,
-        1.0 / 6_227_020_800.0,
-    ];
     let x = x.clamp(-700.0, 0.0);
     let n = (x * LOG2E).round_ties_even();
     let r = n.mul_add(-LN2_LO, n.mul_add(-LN2_HI, x));
