@@ -33,9 +33,9 @@ use rayon::prelude::*;
 /// Candidates sampled to choose the node count (it uses at most 128 smooth members): runs of
 /// [`SAMPLE_RUN`] consecutive candidates, spread evenly over the list.
 const SAMPLE: usize = 256;
-/// Candidates per run of the sample. Single candidates at a stride of thousands took ~150 us
-/// of a 1e6-leaf pulse before its tasks could start (each field of each leaf a miss on its own
-/// page), runs of 16 ~40 us.
+/// Candidates per run of the sample. Single candidates at a stride of thousands took 150-230 us
+/// of a 1e6-leaf pulse before its tasks could start (their reads missed: 176 us cold, 30 us for
+/// the same call repeated; prefetching them first did not help), runs of 16 40-65 us.
 const SAMPLE_RUN: usize = 16;
 
 /// The candidates of a pose in a thread-independent order: the BVH's traversal order, or

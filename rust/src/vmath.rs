@@ -82,23 +82,36 @@ pub fn sincos_unit_k<const KS: usize, const KC: usize>(e: f64) -> (f64, f64) {
 }
 
 /// `exp(x)` for x <= 0 (clamped below at -700, where exp is 1e-304): reduction by ln 2 and a
-/// Taylor polynomial to degree 13 on |r| <= ln(2)/2.
+/// Taylor polynomial to degree 13 on |r| <= ln(2)/2, by Estrin's scheme for the terms from
+/// r^2 on (a chain of 4 FMAs and the powers, where Horner's is 11 long: the lobe test's gains
+/// wait on it) and Horner's for the last two. (A loop version for every degree broke the
+/// vectorisation of the callers' lane loops.)
 #[inline(always)]
 pub fn exp_nonpos(x: f64) -> f64 {
-    const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
-    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     const C: [f64; 14] = INV_FACT;
-    let x = x.clamp(-700.0, 0.0);
-    let n = (x * std::f64::consts::LOG2_E).round_ties_even();
-    let r = n.mul_add(-LN2_LO, n.mul_add(-LN2_HI, x));
-    // Estrin's scheme for the terms from r^2 on (a chain of 4 FMAs and the powers, where
-    // Horner's is 11 long: the lobe test's gains wait on it), Horner's for the last two
+    let (n, r) = exp_reduce(x);
     let (r2, r4) = (r * r, (r * r) * (r * r));
     let q0 = C[5].mul_add(r, C[4]).mul_add(r2, C[3].mul_add(r, C[2]));
     let q1 = C[9].mul_add(r, C[8]).mul_add(r2, C[7].mul_add(r, C[6]));
     let q2 = C[13].mul_add(r, C[12]).mul_add(r2, C[11].mul_add(r, C[10]));
     let high = q2.mul_add(r4, q1).mul_add(r4, q0);
-    let p = high.mul_add(r, C[1]).mul_add(r, C[0]);
+    times_pow2(high.mul_add(r, C[1]).mul_add(r, C[0]), n)
+}
+
+/// `x` (clamped to [-700, 0]) as `n ln 2 + r`, `|r| <= ln(2)/2`: `(n, r)`.
+#[inline(always)]
+fn exp_reduce(x: f64) -> (f64, f64) {
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    let x = x.clamp(-700.0, 0.0);
+    let n = (x * std::f64::consts::LOG2_E).round_ties_even();
+    (n, n.mul_add(-LN2_LO, n.mul_add(-LN2_HI, x)))
+}
+
+/// `p 2^n` for an integer-valued `n` in [-1010, 0], without a float-to-int conversion: the low
+/// mantissa bits of `n + 1023 + 2^52` hold `n + 1023`; shifted into the exponent field.
+#[inline(always)]
+fn times_pow2(p: f64, n: f64) -> f64 {
     let t = n + (1023.0 + 4_503_599_627_370_496.0);
     p * f64::from_bits(t.to_bits() << 52)
 }
@@ -124,20 +137,12 @@ const INV_FACT: [f64; 14] = [
 /// [`exp_nonpos`] with a Taylor polynomial of degree `D` (D = 10: relative error < 4e-13).
 #[inline(always)]
 pub fn exp_nonpos_d<const D: usize>(x: f64) -> f64 {
-    const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
-    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
-    const LOG2E: f64 = std::f64::consts::LOG2_E;
-    let x = x.clamp(-700.0, 0.0);
-    let n = (x * LOG2E).round_ties_even();
-    let r = n.mul_add(-LN2_LO, n.mul_add(-LN2_HI, x));
+    let (n, r) = exp_reduce(x);
     let mut p = INV_FACT[D];
     for &c in INV_FACT[..D].iter().rev() {
         p = p.mul_add(r, c);
     }
-    // 2^n without a float-to-int conversion: the low mantissa bits of n + 1023 + 2^52 hold
-    // n + 1023; shift them into the exponent field.
-    let t = n + (1023.0 + 4_503_599_627_370_496.0);
-    p * f64::from_bits(t.to_bits() << 52)
+    times_pow2(p, n)
 }
 
 /// Index of the erf interval holding |z| (the last one is the constant 1 beyond 6).
