@@ -134,7 +134,9 @@ const INV_FACT: [f64; 14] = [
     1.0 / 6_227_020_800.0,
 ];
 
-/// [`exp_nonpos`] with a Taylor polynomial of degree `D` (D = 10: relative error < 4e-13).
+/// [`exp_nonpos`]'s reduction with a Taylor polynomial of degree `D` by Horner's scheme (D = 10:
+/// relative error < 4e-13; at D = 13 not the same bits as [`exp_nonpos`], whose polynomial is
+/// Estrin's).
 #[inline(always)]
 pub fn exp_nonpos_d<const D: usize>(x: f64) -> f64 {
     let (n, r) = exp_reduce(x);
