@@ -68,7 +68,7 @@ def test_fast_is_within_tol_for_a_kinked_leaf_with_a_tiny_live_part(radius, live
                                 {"leaf_model": "physical_optics"}, {"spreading": False},
                                 {"window": "rect", "beamwidth_deg": 60.0}])
 def test_fast_is_within_tol_on_the_canonical_box(tol, kw):
-    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+    from batecho.echoes.canonical import canonical_leaf_box, canonical_pose, canonical_sonar
 
     leaves = canonical_leaf_box(np.random.default_rng(3))
     assert_within_tol(leaves, canonical_sonar(**kw), canonical_pose(), tol)
@@ -99,7 +99,7 @@ def test_fast_refuses_tolerances_outside_its_range(tol):
 
 
 def test_auto_below_the_fast_floor_is_exact():
-    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+    from batecho.echoes.canonical import canonical_leaf_box, canonical_pose, canonical_sonar
 
     leaves = canonical_leaf_box(np.random.default_rng(8))
     exact = simulate(leaves, canonical_sonar(), canonical_pose(), method="exact")

@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 matplotlib.use("Agg")
 
 import batecho
-from batecho.meshio import load_obj
+from batecho.trees.objfile import load_obj
 from batecho.trees import (
     REFERENCE_TREE,
     Tree,

@@ -19,11 +19,12 @@ from typing import Any
 import numpy as np
 from scipy.special import erf, j1
 
-from .absorption import iso9613_alpha_db_per_m
-from .echoes import Echoes
-from .leaves import Leaves, as_leaves
-from .poses import Poses
-from .sonar import Beam, Sonar
+from .sonar.absorption import iso9613_alpha_db_per_m
+from .echoes.simulate import Echoes
+from .trees.leaves import Leaves, as_leaves
+from .flight.poses import Poses
+from .sonar.beam import Beam
+from .sonar.sonar import Sonar
 
 _atan2 = np.frompyfunc(math.atan2, 2, 1)
 _exp = np.frompyfunc(math.exp, 1, 1)

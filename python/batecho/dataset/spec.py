@@ -28,6 +28,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..echoes.canonical import CANONICAL_BOX
+from ..forest.ipp import PAPER_WINDOW
+
 __all__ = [
     "DatasetSpec",
     "Dist",
@@ -314,8 +317,6 @@ class _Section:
 
 # ----------------------------------------------------------------------------- sections
 
-CANONICAL_BOX = ((1.0, 10.0), (-2.0, 2.0), (-2.0, 2.0))
-PAPER_WINDOW = (0.0, 20.0, 0.0, 20.0)
 
 
 @dataclass(frozen=True)
@@ -475,7 +476,7 @@ class SonarSpec(_Section):
 
     def make(self, beamwidth_deg: float):
         """A ``batecho.Sonar`` with this grid and ``beamwidth_deg``."""
-        from ..sonar import Sonar
+        from ..sonar.sonar import Sonar
 
         return Sonar(
             beamwidth_deg=beamwidth_deg,

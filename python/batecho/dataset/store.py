@@ -327,7 +327,7 @@ def _consolidate(store: StoreLike) -> None:
 
 def _create(store: StoreLike, spec: DatasetSpec, overwrite: bool = False) -> Any:
     zarr = _zarr()
-    from .. import __version__
+    from .._core import __version__
 
     g = zarr.open_group(str(store), mode="w" if overwrite else "w-", zarr_format=3)
     for name, (dims, values, units, desc) in coordinates(spec).items():

@@ -7,12 +7,17 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
-from .poses import Poses
-from .scene import as_scene
-from .sonar import Sonar
+from .. import _core
+from ..flight.poses import Poses
+from ..forest.scene import as_scene
+from ..sonar.sonar import Sonar
 
-_METHODS = ("exact", "fast", "auto")
+#: The methods of :func:`simulate`.
+METHODS = ("exact", "fast", "auto")
+#: The method :func:`simulate`, scene files and the command line use unless told otherwise.
+DEFAULT_METHOD = "auto"
+#: The tolerance of the fast and auto methods unless told otherwise.
+DEFAULT_TOL = 1e-12
 
 
 @dataclass(frozen=True)
@@ -57,8 +62,9 @@ def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
     return sonar, poses
 
 
-def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "auto",
-             tol: float = 1e-12) -> Echoes:
+def simulate(
+    scene: Any, sonar: Sonar, poses: Poses, method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL
+) -> Echoes:
     """Echoes of ``scene`` (a Scene, or Leaves) for each pose in ``poses``.
 
     ``method``:
@@ -76,8 +82,8 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "auto",
     number of threads.
     """
     sonar, poses = _check(sonar, poses)
-    if method not in _METHODS:
-        raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     try:
         tol = float(tol)
     except (TypeError, ValueError):
@@ -112,4 +118,4 @@ def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") 
     )
 
 
-__all__ = ["Echoes", "lobe_members", "simulate"]
+__all__ = ["DEFAULT_METHOD", "DEFAULT_TOL", "METHODS", "Echoes", "lobe_members", "simulate"]

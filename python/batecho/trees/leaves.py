@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import finite, norms, readonly, real_array, vectors
+from .._geometry import norms
+from .._validate import finite, readonly, real_array, vectors
 
 #: Coordinates beyond this (m) are refused (the BVH stores f32 boxes).
 MAX_COORDINATE_M = 1e15

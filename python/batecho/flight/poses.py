@@ -6,7 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import crosses, dots, norms, readonly, vectors
+from .._geometry import crosses, dots, norms
+from .._validate import readonly, vectors
 
 
 class Poses:

@@ -1,4 +1,5 @@
-"""A 6-DOF quadrotor with a geometric SE(3) tracking controller, and the sonar poses it flies.
+"""A 6-DOF quadrotor: its physical parameters, state, rotor mixer and dynamics, wind gusts, and
+the integration of a flight under the SE(3) controller of :mod:`batecho.flight.controller`.
 
 Model (Bouabdallah-style rigid body with rotor dynamics). World frame: z up, metres,
 seconds. Body frame: x forward, y left, z up (the sonar's forward/left/up when the mount is
@@ -37,136 +38,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicHermiteSpline
-from scipy.spatial.transform import Rotation, Slerp
 
-from ._validate import (
-    crosses,
-    finite,
-    finite_scalar,
-    positive_scalar,
-    readonly,
-    real_array,
-    vectors,
-)
-from .poses import Poses
+from .._validate import finite, positive_scalar, readonly, real_array, vectors
+from ._so3 import E3, cross3, hat, orthonormalise, triple
+from .controller import SE3Gains, desired_attitude, flat_reference, se3_control
+from .record import Flight
 from .trajectories import Trajectory
 
-__all__ = [
-    "Flight",
-    "Gusts",
-    "QuadState",
-    "Quadrotor",
-    "SE3Gains",
-    "SonarMount",
-]
+__all__ = ["GRAVITY", "Gusts", "QuadState", "Quadrotor"]
 
 GRAVITY = 9.81
-_E3 = np.array([0.0, 0.0, 1.0])
-
-
-def _hat(w: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
-def _vee(S: np.ndarray) -> np.ndarray:
-    """vee of the antisymmetric part of a (..., 3, 3) matrix."""
-    return 0.5 * np.stack(
-        [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]],
-        axis=-1,
-    )
-
-
-def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two 3-vectors (fast path for the integration loop)."""
-    a0, a1, a2 = a.tolist()
-    b0, b1, b2 = b.tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.sum(a * b, axis=-1, keepdims=True)
-
-
-def _unit_derivs(
-    v: np.ndarray, dv: np.ndarray, ddv: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """u = v/|v| and its first two time derivatives, row-wise."""
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    u = v / n
-    nd = _dot(u, dv)
-    du = (dv - u * nd) / n
-    ndd = _dot(du, dv) + _dot(u, ddv)
-    ddu = (ddv - 2.0 * du * nd - u * ndd) / n
-    return u, du, ddu
-
-
-def _orthonormalise(R: np.ndarray) -> np.ndarray:
-    U, _, Vt = np.linalg.svd(R)
-    return U @ Vt
-
-
-def _rot(axis: int, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    R = np.eye(3)
-    R[i, i] = R[j, j] = c
-    R[j, i] = s
-    R[i, j] = -s
-    return R
-
-
-def _triple(x: Any, name: str) -> np.ndarray:
-    arr = real_array(x, name)
-    if arr.ndim == 0:
-        arr = np.full(3, float(arr))
-    if arr.shape != (3,):
-        raise ValueError(f"{name} must be a scalar or a 3-vector, got shape {arr.shape}")
-    return readonly(finite(arr, name))
-
-
-# --------------------------------------------------------------------------- parameters
-
-
-@dataclass(frozen=True, eq=False)
-class SE3Gains:
-    """Gains of the geometric controller: position ``k_x`` (N/m), velocity ``k_v`` (N s/m),
-    attitude ``k_R`` (N m/rad) and angular rate ``k_Omega`` (N m s/rad), each a scalar or a
-    per-axis 3-vector (world axes for k_x, k_v; body axes for k_R, k_Omega)."""
-
-    k_x: Any
-    k_v: Any
-    k_R: Any
-    k_Omega: Any
-
-    def __post_init__(self):
-        for name in ("k_x", "k_v", "k_R", "k_Omega"):
-            v = _triple(getattr(self, name), name)
-            if not (v > 0).all():
-                raise ValueError(f"{name} must be > 0, got {v}")
-            object.__setattr__(self, name, v)
-
-    @classmethod
-    def from_bandwidth(
-        cls,
-        mass: float,
-        inertia: Any,
-        position_rad_s: float,
-        attitude_rad_s: float,
-        position_damping: float = 1.0,
-        attitude_damping: float = 0.9,
-    ) -> SE3Gains:
-        """Gains placing the linearised position and attitude loops at natural frequencies
-        ``position_rad_s`` and ``attitude_rad_s`` (rad/s) with the given damping ratios:
-        ``k_x = m wp^2``, ``k_v = 2 zp m wp``, ``k_R = J wa^2``, ``k_Omega = 2 za J wa``."""
-        m = positive_scalar(mass, "mass")
-        J = _triple(inertia, "inertia")
-        wp = positive_scalar(position_rad_s, "position_rad_s")
-        wa = positive_scalar(attitude_rad_s, "attitude_rad_s")
-        zp = positive_scalar(position_damping, "position_damping")
-        za = positive_scalar(attitude_damping, "attitude_damping")
-        return cls(m * wp * wp, 2.0 * zp * m * wp, J * wa * wa, 2.0 * za * J * wa)
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,7 +66,7 @@ class Gusts:
         object.__setattr__(
             self, "correlation_time", positive_scalar(self.correlation_time, "correlation_time")
         )
-        object.__setattr__(self, "mean", _triple(self.mean, "mean"))
+        object.__setattr__(self, "mean", triple(self.mean, "mean"))
 
     def sample(self, n: int, dt: float, rng: np.random.Generator) -> np.ndarray:
         """(n, 3) wind velocities at steps ``dt`` apart, starting from the stationary law."""
@@ -221,7 +102,7 @@ class QuadState:
             or np.linalg.det(R) <= 0
         ):
             raise ValueError("rotation must be a 3x3 rotation matrix (orthonormal, det +1)")
-        object.__setattr__(self, "rotation", readonly(_orthonormalise(R)))
+        object.__setattr__(self, "rotation", readonly(orthonormalise(R)))
         w = finite(real_array(self.rotor_speeds, "rotor_speeds"), "rotor_speeds")
         if w.shape != (4,):
             raise ValueError(f"rotor_speeds must have shape (4,), got {w.shape}")
@@ -238,98 +119,6 @@ class QuadState:
                 self.rotor_speeds,
             ]
         )
-
-
-@dataclass(frozen=True, eq=False)
-class SonarMount:
-    """How the sonar sits on the body: ``offset`` (3,) m in the body frame, and an orientation
-    ``R_mount = Rz(yaw) Ry(-pitch) Rx(roll)`` in the body frame (degrees; ``pitch_deg < 0``
-    tilts the beam down, ``yaw_deg > 0`` turns it left). The sonar frame is
-    ``R_body R_mount`` with columns (forward, left, up)."""
-
-    offset: Any = (0.0, 0.0, 0.0)
-    pitch_deg: float = 0.0
-    yaw_deg: float = 0.0
-    roll_deg: float = 0.0
-
-    def __post_init__(self):
-        object.__setattr__(self, "offset", readonly(vectors(self.offset, "offset")[0]))
-        for name in ("pitch_deg", "yaw_deg", "roll_deg"):
-            object.__setattr__(self, name, finite_scalar(getattr(self, name), name))
-
-    @property
-    def rotation(self) -> np.ndarray:
-        """(3, 3) body-frame rotation of the sonar frame."""
-        return (
-            _rot(2, math.radians(self.yaw_deg))
-            @ _rot(1, -math.radians(self.pitch_deg))
-            @ _rot(0, math.radians(self.roll_deg))
-        )
-
-    def pose(self, position: Any, R_body: Any) -> Poses:
-        """Sonar poses for body positions (p, 3) or (3,) m and rotations (p, 3, 3) or (3, 3)."""
-        pos = vectors(position, "position")
-        R = finite(real_array(R_body, "R_body"), "R_body")
-        if R.ndim == 2:
-            R = R[None]
-        if R.shape != (len(pos), 3, 3):
-            raise ValueError(f"R_body must have shape ({len(pos)}, 3, 3), got {R.shape}")
-        return Poses.from_rotations(pos + R @ self.offset, R @ self.rotation)
-
-
-# ------------------------------------------------------------------------------ reference
-
-
-def _flat_reference(traj: Trajectory, t: np.ndarray, g: float) -> dict[str, np.ndarray]:
-    """Reference states by differential flatness at times ``t`` (n,): position, velocity,
-    acceleration, yaw, nominal attitude R_ref, its body angular velocity and acceleration,
-    and the nominal specific thrust |a + g e3| (m/s^2)."""
-    p, v, a, j, s = (traj._derivative(t, k) for k in range(5))
-    psi, dpsi, ddpsi = (np.atleast_1d(x) for x in traj.yaw_derivatives(t))
-    F = a + g * _E3
-    b3, db3, ddb3 = _unit_derivs(F, j, s)
-    c, sn, z = np.cos(psi), np.sin(psi), np.zeros_like(psi)
-    b1d = np.stack([c, sn, z], axis=-1)
-    perp = np.stack([-sn, c, z], axis=-1)
-    db1d = dpsi[:, None] * perp
-    ddb1d = ddpsi[:, None] * perp - (dpsi * dpsi)[:, None] * b1d
-    w = crosses(b3, b1d)
-    dw = crosses(db3, b1d) + crosses(b3, db1d)
-    ddw = crosses(ddb3, b1d) + 2.0 * crosses(db3, db1d) + crosses(b3, ddb1d)
-    b2, db2, ddb2 = _unit_derivs(w, dw, ddw)
-    b1 = crosses(b2, b3)
-    db1 = crosses(db2, b3) + crosses(b2, db3)
-    ddb1 = crosses(ddb2, b3) + 2.0 * crosses(db2, db3) + crosses(b2, ddb3)
-    R = np.stack([b1, b2, b3], axis=-1)
-    dR = np.stack([db1, db2, db3], axis=-1)
-    ddR = np.stack([ddb1, ddb2, ddb3], axis=-1)
-    Rt = np.swapaxes(R, -1, -2)
-    W = Rt @ dR
-    Om = _vee(W)
-    dOm = _vee(Rt @ ddR - W @ W)
-    return {
-        "p": p,
-        "v": v,
-        "a": a,
-        "yaw": psi,
-        "R": R,
-        "Omega": Om,
-        "dOmega": dOm,
-        "thrust": np.linalg.norm(F, axis=-1),
-    }
-
-
-def _desired_attitude(F: np.ndarray, psi: float) -> np.ndarray:
-    """Lee et al.'s R_d: b3 along the thrust vector F, b1 the projection of the heading
-    (cos psi, sin psi, 0) onto the plane normal to b3."""
-    n = float(np.linalg.norm(F))
-    b3 = F / n if n > 1e-12 else _E3
-    b2 = _cross3(b3, np.array([math.cos(psi), math.sin(psi), 0.0]))
-    b2 /= np.linalg.norm(b2)
-    return np.column_stack([_cross3(b2, b3), b2, b3])
-
-
-# ------------------------------------------------------------------------------ quadrotor
 
 
 @dataclass(frozen=True, eq=False)
@@ -363,11 +152,11 @@ class Quadrotor:
     def __post_init__(self):
         for name in ("mass", "arm_length", "k_f", "k_m", "motor_time_constant", "gravity"):
             object.__setattr__(self, name, positive_scalar(getattr(self, name), name))
-        J = _triple(self.inertia, "inertia")
+        J = triple(self.inertia, "inertia")
         if not (J > 0).all():
             raise ValueError(f"inertia must be > 0, got {J}")
         object.__setattr__(self, "inertia", J)
-        d = _triple(self.drag, "drag")
+        d = triple(self.drag, "drag")
         if (d < 0).any():
             raise ValueError(f"drag must be >= 0, got {d}")
         object.__setattr__(self, "drag", d)
@@ -495,16 +284,16 @@ class Quadrotor:
         """The state that flies ``trajectory`` exactly at ``t0``: its position and velocity,
         the flat attitude and body rates, and the rotor speeds of the nominal thrust and
         moments (level hover at the yaw reference if it starts at rest)."""
-        ref = _flat_reference(trajectory, np.array([float(t0)]), self.gravity)
+        ref = flat_reference(trajectory, np.array([float(t0)]), self.gravity)
         Om, dOm = ref["Omega"][0], ref["dOmega"][0]
         J = self.inertia
         M = J * dOm + np.cross(Om, J * Om)
         R = ref["R"][0]
-        F = self.mass * (ref["a"][0] + self.gravity * _E3)
+        F = self.mass * (ref["a"][0] + self.gravity * E3)
         if self.drag_feedforward and self.drag.any():
             for _ in range(4):  # the drag force depends on the attitude it tilts
                 Fd = F + R @ (self.drag * (ref["v"][0] @ R))
-                R = _desired_attitude(Fd, float(ref["yaw"][0]))
+                R = desired_attitude(Fd, float(ref["yaw"][0]))
             F = Fd
         w = self.rotor_speeds_for(float(np.linalg.norm(F)), M)
         return QuadState(ref["p"][0], ref["v"][0], R, Om, w)
@@ -518,33 +307,24 @@ class Quadrotor:
         drag = R @ (self.drag * ((v - wind) @ R))
         dv = (u[0] * R[:, 2] - drag) / self.mass
         dv[2] -= self.gravity
-        dR = R @ _hat(Om)
-        dOm = (u[1:] - _cross3(Om, J * Om)) / J
+        dR = R @ hat(Om)
+        dOm = (u[1:] - cross3(Om, J * Om)) / J
         dw = (w_cmd - w) / self.motor_time_constant
         return np.concatenate([v, dv, dR.ravel(), dOm, dw])
 
     def _control(self, y: np.ndarray, ref: dict[str, np.ndarray], k: int) -> np.ndarray:
-        """Lee et al. (2010) SE(3) control at reference sample ``k`` -> rotor speed commands."""
-        gn = self.gains
-        R = y[6:15].reshape(3, 3)
-        Om = y[15:18]
-        J = self.inertia
-        ex = y[0:3] - ref["p"][k]
-        ev = y[3:6] - ref["v"][k]
-        F = -gn.k_x * ex - gn.k_v * ev + self.mass * (ref["a"][k] + self.gravity * _E3)
-        if self.drag_feedforward:
-            F = F + R @ (self.drag * (ref["v"][k] @ R))
-        f = float(F @ R[:, 2])
-        Rd = _desired_attitude(F, ref["yaw"][k])
-        RtRd = R.T @ Rd
-        eR = 0.5 * _vee(RtRd.T - RtRd)
-        Omd = RtRd @ ref["Omega"][k]
-        eOm = Om - Omd
-        M = (
-            -gn.k_R * eR
-            - gn.k_Omega * eOm
-            + _cross3(Om, J * Om)
-            - J * (_cross3(Om, Omd) - RtRd @ ref["dOmega"][k])
+        """Rotor speed commands of the SE(3) controller at reference sample ``k``."""
+        assert self.gains is not None  # set in __post_init__
+        f, M = se3_control(
+            self.gains,
+            self.mass,
+            self.gravity,
+            self.inertia,
+            self.drag,
+            self.drag_feedforward,
+            y,
+            ref,
+            k,
         )
         return self.rotor_speeds_for(f, M)
 
@@ -593,7 +373,7 @@ class Quadrotor:
                 else np.random.default_rng(0 if rng is None else rng)
             )
             wind = gusts.sample(n + 1, h, gen)
-        ref = _flat_reference(trajectory, times, self.gravity)
+        ref = flat_reference(trajectory, times, self.gravity)
         Y = np.empty((n + 1, 22))
         Y[0] = state.vector()
         if method == "rk4":
@@ -607,7 +387,7 @@ class Quadrotor:
                 k3 = self._deriv(y + 0.5 * hk * k2, cmd, wk)
                 k4 = self._deriv(y + hk * k3, cmd, wk)
                 y = y + (hk / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-                y[6:15] = _orthonormalise(y[6:15].reshape(3, 3)).ravel()
+                y[6:15] = orthonormalise(y[6:15].reshape(3, 3)).ravel()
                 Y[k + 1] = y
         else:
             Y[:] = self._fly_scipy(trajectory, times, Y[0], wind, h)
@@ -617,11 +397,13 @@ class Quadrotor:
         self, trajectory: Trajectory, times: np.ndarray, y0: np.ndarray, wind: np.ndarray, h: float
     ) -> np.ndarray:
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            ref = _flat_reference(trajectory, np.array([t]), self.gravity)
+            ref = flat_reference(trajectory, np.array([t]), self.gravity)
             yy = y.copy()
-            yy[6:15] = _orthonormalise(y[6:15].reshape(3, 3)).ravel()
+            yy[6:15] = orthonormalise(y[6:15].reshape(3, 3)).ravel()
             k = min(int(t / h), len(wind) - 1)
             return self._deriv(y, self._control(yy, ref, 0), wind[k])
+
+        from scipy.integrate import solve_ivp
 
         sol = solve_ivp(
             rhs, (times[0], times[-1]), y0, method="DOP853", t_eval=times, rtol=1e-9, atol=1e-10
@@ -629,90 +411,5 @@ class Quadrotor:
         if not sol.success:  # pragma: no cover
             raise RuntimeError(f"solve_ivp failed: {sol.message}")
         Y = sol.y.T.copy()
-        Y[:, 6:15] = _orthonormalise(Y[:, 6:15].reshape(-1, 3, 3)).reshape(-1, 9)
+        Y[:, 6:15] = orthonormalise(Y[:, 6:15].reshape(-1, 3, 3)).reshape(-1, 9)
         return Y
-
-
-# --------------------------------------------------------------------------------- flight
-
-
-class Flight:
-    """A recorded flight: the states at ``times`` (k,) s and the reference they tracked.
-
-    Arrays (read-only): ``positions``, ``velocities`` (k, 3) world; ``attitudes`` (k, 3, 3)
-    body -> world; ``angular_velocities`` (k, 3) body rad/s; ``rotor_speeds`` (k, 4) rad/s;
-    ``thrust`` (k,) N; ``reference_positions``, ``reference_velocities`` (k, 3);
-    ``reference_yaw`` (k,) rad; ``wind`` (k, 3) m/s.
-    """
-
-    def __init__(
-        self,
-        quadrotor: Quadrotor,
-        trajectory: Trajectory,
-        times: np.ndarray,
-        Y: np.ndarray,
-        ref: dict[str, np.ndarray],
-        wind: np.ndarray,
-    ):
-        self.quadrotor = quadrotor
-        self.trajectory = trajectory
-        self.times = readonly(np.ascontiguousarray(times))
-        self.positions = readonly(np.ascontiguousarray(Y[:, 0:3]))
-        self.velocities = readonly(np.ascontiguousarray(Y[:, 3:6]))
-        self.attitudes = readonly(np.ascontiguousarray(Y[:, 6:15].reshape(-1, 3, 3)))
-        self.angular_velocities = readonly(np.ascontiguousarray(Y[:, 15:18]))
-        self.rotor_speeds = readonly(np.ascontiguousarray(Y[:, 18:22]))
-        self.thrust = readonly(quadrotor.k_f * np.sum(self.rotor_speeds**2, axis=1))
-        self.reference_positions = readonly(np.ascontiguousarray(ref["p"]))
-        self.reference_velocities = readonly(np.ascontiguousarray(ref["v"]))
-        self.reference_yaw = readonly(np.ascontiguousarray(ref["yaw"]))
-        self.wind = readonly(np.ascontiguousarray(wind))
-
-    def __len__(self) -> int:
-        return len(self.times)
-
-    def __repr__(self) -> str:
-        return (
-            f"Flight(k={len(self)}, t=[{self.times[0]:.6g}, {self.times[-1]:.6g}] s, "
-            f"max error {self.position_error.max():.3g} m)"
-        )
-
-    @property
-    def position_error(self) -> np.ndarray:
-        """(k,) distance from the reference position, m."""
-        return np.linalg.norm(self.positions - self.reference_positions, axis=1)
-
-    @property
-    def tilt_deg(self) -> np.ndarray:
-        """(k,) angle between body z and world z, degrees."""
-        return np.degrees(np.arccos(np.clip(self.attitudes[:, 2, 2], -1.0, 1.0)))
-
-    def pulse_times(self, rate_hz: float, start: float | None = None) -> np.ndarray:
-        """Times (s) of pulses at ``rate_hz`` Hz from ``start`` (default the first sample)
-        to the end of the flight."""
-        rate = positive_scalar(rate_hz, "rate_hz")
-        t0 = float(self.times[0]) if start is None else finite_scalar(start, "start")
-        t1 = float(self.times[-1])
-        if not self.times[0] <= t0 <= t1:
-            raise ValueError(f"start={t0} s is outside the flight [{self.times[0]}, {t1}] s")
-        return t0 + np.arange(math.floor((t1 - t0) * rate + 1e-9) + 1) / rate
-
-    def body_states(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Body positions (p, 3) (cubic Hermite in position and velocity) and attitudes
-        (p, 3, 3) (SLERP) at times ``t`` within the flight."""
-        tt = np.atleast_1d(finite(real_array(t, "pulse_times"), "pulse_times")).ravel()
-        if tt.size == 0:
-            raise ValueError("pulse_times is empty")
-        lo, hi = self.times[0], self.times[-1]
-        if tt.min() < lo - 1e-12 or tt.max() > hi + 1e-12:
-            raise ValueError(f"pulse_times must lie within the flight [{lo}, {hi}] s")
-        tt = np.clip(tt, lo, hi)
-        pos = CubicHermiteSpline(self.times, self.positions, self.velocities)(tt)
-        rots = Slerp(self.times, Rotation.from_matrix(self.attitudes))(tt).as_matrix()
-        return pos, rots
-
-    def poses(self, pulse_times: Any, mount: SonarMount | None = None) -> Poses:
-        """Sonar poses at ``pulse_times`` (s): the flown body pose with ``mount`` applied, so
-        the body's bank and pitch tilt the beam."""
-        pos, rots = self.body_states(pulse_times)
-        return (SonarMount() if mount is None else mount).pose(pos, rots)

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import finite_scalar, positive_scalar
+from .._validate import finite_scalar, positive_scalar
 
 
 def iso9613_alpha_db_per_m(

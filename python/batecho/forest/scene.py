@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import _core
-from .leaves import Leaves, as_leaves
+from .. import _core
+from ..trees.leaves import Leaves, as_leaves
 
 
 class Scene:

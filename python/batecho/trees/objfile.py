@@ -23,8 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
-from ._validate import crosses, norms, positive_scalar, readonly, real_array
+from .. import _core
+from .._geometry import crosses, norms
+from .._validate import positive_scalar, readonly, real_array
 from .leaves import Leaves
 
 #: Leaf patterns used when ``leaf_patterns`` is None (the Rust core's defaults).

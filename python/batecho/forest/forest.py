@@ -19,8 +19,6 @@ generator, so it does not depend on how many trees are grown or in which order.
 
 from __future__ import annotations
 
-import math
-import numbers
 import os
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -28,40 +26,19 @@ from typing import Any
 
 import numpy as np
 
+from .._geometry import rot_z
+from .._random import generator, int_seed, spawn
+from .._validate import integer, positive_scalar
+from ..trees.grow import grow_tree
+from ..trees.leaves import Leaves
+from ..trees.objfile import write_obj
+from ..trees.tree import Tree
 from .ipp import PAPER_WINDOW, _as_window, paper_intensity, sample_ipp
-from .leaves import Leaves
-from .meshio import write_obj
 from .scene import Scene
-from .trees import Tree, grow_tree
 
 __all__ = ["Forest"]
 
 TreeFactory = Callable[..., Tree]
-
-
-def _generator(rng: Any) -> tuple[np.random.Generator, int | None]:
-    if isinstance(rng, np.random.Generator):
-        return rng, None
-    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool):
-        return np.random.default_rng(int(rng)), int(rng)
-    if rng is None:
-        return np.random.default_rng(), None
-    raise TypeError(f"rng must be a numpy Generator, an int seed or None, got {rng!r}")
-
-
-def _spawn(gen: np.random.Generator, n: int) -> list[np.random.Generator]:
-    """``gen.spawn(n)`` (also on NumPy < 1.25): children of its bit generator's SeedSequence."""
-    if hasattr(gen, "spawn"):
-        return list(gen.spawn(n))
-    bg = gen.bit_generator
-    seq = getattr(bg, "seed_seq", None) or bg._seed_seq
-    return [np.random.Generator(type(bg)(s)) for s in seq.spawn(n)]
-
-
-def _rot_z(angle_deg: float) -> np.ndarray:
-    a = math.radians(angle_deg)
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 class Forest:
@@ -169,8 +146,8 @@ class Forest:
         :func:`~batecho.trees.grow_tree`) or one Tree to stand everywhere. ``variants=None``
         grows one tree per position; ``variants=k`` grows ``k`` and reuses them, assigned by a
         random permutation of ``0, 1, ..., k-1, 0, 1, ...`` (all used when ``t >= k``)."""
-        gen, seed = _generator(rng)
-        place, trees = _spawn(gen, 2)
+        gen, seed = generator(rng), int_seed(rng)
+        place, trees = spawn(gen, 2)
         return cls._build(
             positions,
             place,
@@ -202,8 +179,8 @@ class Forest:
         """Trees at the points of an inhomogeneous Poisson process with ``intensity`` (trees
         per m², a callable ``f(x, y)``) on ``window`` (see :func:`~batecho.ipp.sample_ipp`),
         then as :meth:`from_positions`."""
-        gen, seed = _generator(rng)
-        pos_gen, place, trees = _spawn(gen, 3)
+        gen, seed = generator(rng), int_seed(rng)
+        pos_gen, place, trees = spawn(gen, 3)
         positions = sample_ipp(intensity, window, pos_gen, lambda_max=lambda_max)
         return cls._build(
             positions,
@@ -252,14 +229,9 @@ class Forest:
     ) -> Forest:
         pos = np.array(positions, dtype=np.float64).reshape(-1, 2)
         t = len(pos)
-        if isinstance(scale_sd, bool) or not isinstance(scale_sd, numbers.Real):
-            raise TypeError(f"scale_sd must be a real number, got {scale_sd!r}")
-        if not (math.isfinite(scale_sd) and scale_sd >= 0):
-            raise ValueError(f"scale_sd must be finite and >= 0, got {scale_sd!r}")
-        if variants is not None and (
-            isinstance(variants, bool) or not isinstance(variants, numbers.Integral) or variants < 1
-        ):
-            raise ValueError(f"variants must be None or an integer >= 1, got {variants!r}")
+        positive_scalar(scale_sd, "scale_sd", allow_zero=True, strict=True)
+        if variants is not None:
+            integer(variants, "variants", 1)
         if tree_params is not None and not isinstance(tree_params, Mapping):
             raise TypeError(f"tree_params must be a mapping, got {type(tree_params).__name__}")
         rotations = place.uniform(0.0, 360.0, t)
@@ -273,7 +245,7 @@ class Forest:
             n_grow = min(k, t) if variants is None else k
             vi = np.arange(t) if variants is None else place.permutation(np.arange(t) % k)
             kwargs = dict(tree_params or {})
-            vs = [tree(g, **kwargs) for g in _spawn(tree_gen, n_grow)] if n_grow else []
+            vs = [tree(g, **kwargs) for g in spawn(tree_gen, n_grow)] if n_grow else []
             for i, v in enumerate(vs):
                 if not isinstance(v, Tree):
                     raise TypeError(f"tree(...) must return a Tree; call {i} gave {type(v)}")
@@ -354,7 +326,7 @@ class Forest:
         v = self._variants[self._vi[i]]
         b = v.base
         t = np.array([self._positions[i, 0] - b[0], self._positions[i, 1] - b[1], 0.0])
-        return _rot_z(float(self._rotations[i])), b, t, float(self._scales[i])
+        return rot_z(float(self._rotations[i])), b, t, float(self._scales[i])
 
     def placed(self, i: int) -> Tree:
         """Tree ``i`` in place (a new Tree)."""
