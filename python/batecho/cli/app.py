@@ -8,7 +8,7 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from ..echoes.simulate import DEFAULT_TOL, METHODS
+from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.models import TREE_MODELS
 from .commands import UserError, run_demo, run_paper_figures, run_paper_table1, run_simulate
 
@@ -255,9 +255,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     pt.add_argument(
         "--method",
         choices=METHODS,
-        default="exact",
-        help="batecho.simulate method: exact (every leaf-bin term, default), fast (NUFFT "
-        "within --tol) or auto",
+        default=DEFAULT_METHOD,
+        help="batecho.simulate method: exact (every leaf-bin term), fast (NUFFT within --tol) "
+        f"or auto (the cheaper of the two per pulse); default {DEFAULT_METHOD}",
     )
     pt.add_argument(
         "--tol",

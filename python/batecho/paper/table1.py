@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..echoes.simulate import simulate
+from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, simulate
 from ..flight.kinematic import circle
 from ..forest.ipp import draw_tree_positions
 from ..forest.models import make_forest
@@ -79,6 +79,7 @@ class Table1Result:
     def command(self) -> str:
         """The ``batecho`` command line that reruns this table."""
         s = self.settings
+        method, tol = s.get("method", DEFAULT_METHOD), s.get("tol", DEFAULT_TOL)
         return (
             "batecho paper table1"
             f" --points {','.join(map(str, self.points))}"
@@ -88,8 +89,8 @@ class Table1Result:
             f" --beamwidth {s.get('sonar', {}).get('beamwidth_deg', TABLE1_BEAMWIDTH_DEG):g}"
             f" --heading {s.get('heading', 'center')}"
             + (
-                f" --method {s['method']} --tol {s['tol']:g}"
-                if s.get("method", "exact") != "exact"
+                f" --method {method} --tol {tol:g}"
+                if (method, tol) != (DEFAULT_METHOD, DEFAULT_TOL)
                 else ""
             )
             + (
@@ -233,8 +234,8 @@ def table1(
     tree_params: dict | None = None,
     timing_runs: int = 3,
     sonar_params: dict | None = None,
-    method: str = "exact",
-    tol: float = 1e-12,
+    method: str = DEFAULT_METHOD,
+    tol: float = DEFAULT_TOL,
     progress: Progress | None = None,
 ) -> Table1Result:
     """Rerun the paper's Table 1 with batecho.
@@ -247,7 +248,8 @@ def table1(
     along the path (``"velocity"``), and the impulse responses of the whole circle in one
     ``batecho.simulate`` call, timed (best of ``timing_runs``, after one warm-up call for the
     whole table). ``sonar_params`` are further :class:`batecho.Sonar` arguments; ``method``
-    and ``tol`` go to ``batecho.simulate`` (``"exact"``: every leaf-bin term). ``progress``
+    and ``tol`` go to ``batecho.simulate`` (``"exact"``: every leaf-bin term; the default
+    ``"auto"`` picks, per pose, the cheaper of the exact sum and the fast method). ``progress``
     wraps the loop over forests (e.g. ``tqdm``).
     """
     pts = _grid(points, "points")
@@ -256,9 +258,7 @@ def table1(
         raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
     if isinstance(timing_runs, bool) or not isinstance(timing_runs, int) or timing_runs < 1:
         raise ValueError(f"timing_runs must be an integer >= 1, got {timing_runs!r}")
-    from ..scenefile.run import simulate_options
-
-    opts = simulate_options(method, tol)
+    opts = {"method": method, "tol": float(tol)}
     sonar = paper_sonar(beamwidth_deg, **(sonar_params or {}))
     settings: dict[str, Any] = {
         "method": method,

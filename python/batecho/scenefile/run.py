@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.scene import Scene
 from ..outputs.npz import write_npz
 from ..sonar.beam import Beam
@@ -63,10 +64,10 @@ def sonar_params(sonar: Sonar) -> dict[str, Any]:
     return out
 
 
-def simulate_options(method: str = "exact", tol: float = 1e-12) -> dict[str, Any]:
-    """Keyword arguments for :func:`batecho.simulate`: none for the default exact sum (so
-    that any version of ``simulate`` takes them), else ``method`` and ``tol``."""
-    if method == "exact" and tol == 1e-12:
+def simulate_options(method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL) -> dict[str, Any]:
+    """Keyword arguments for :func:`batecho.simulate`: none for its defaults, else ``method``
+    and ``tol``."""
+    if method == DEFAULT_METHOD and tol == DEFAULT_TOL:
         return {}
     return {"method": method, "tol": float(tol)}
 

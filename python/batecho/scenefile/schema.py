@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..echoes.simulate import DEFAULT_TOL, METHODS
+from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.models import TREE_MODELS
 
 __all__ = ["PLOTS", "SCENE_KEYS_BY_KIND", "ScenefileError", "check_document"]
@@ -211,7 +211,7 @@ _OUTPUT = {
 _TOP = {
     "seed": _Opt("int", 0),
     "description": _Opt("str", ""),
-    "method": _Opt("str", "exact", choices=METHODS),
+    "method": _Opt("str", DEFAULT_METHOD, choices=METHODS),
     "tol": _Opt("float", DEFAULT_TOL, doc="relative L2 error of the spectrum for method fast/auto"),
     "scene": _table(_SCENE),
     "sonar": _table(_SONAR),
