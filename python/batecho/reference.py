@@ -19,12 +19,12 @@ from typing import Any
 import numpy as np
 from scipy.special import erf, j1
 
-from .sonar.absorption import iso9613_alpha_db_per_m
 from .echoes.simulate import Echoes
-from .trees.leaves import Leaves, as_leaves
 from .flight.poses import Poses
+from .sonar.absorption import iso9613_alpha_db_per_m
 from .sonar.beam import Beam
 from .sonar.sonar import Sonar
+from .trees.leaves import Leaves, as_leaves
 
 _atan2 = np.frompyfunc(math.atan2, 2, 1)
 _exp = np.frompyfunc(math.exp, 1, 1)

@@ -16,8 +16,8 @@ import numpy as np
 from scipy.special import ndtr, ndtri
 
 from .._optional import forest_available, forest_modules
-from ..trees.leaves import Leaves
 from ..forest.scene import Scene
+from ..trees.leaves import Leaves
 from .spec import DatasetSpec, Dist
 
 __all__ = ["SCENE_KINDS", "BuiltScene", "SceneKind", "draw_leaf_shapes", "forest_available"]

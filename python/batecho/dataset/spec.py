@@ -318,7 +318,6 @@ class _Section:
 # ----------------------------------------------------------------------------- sections
 
 
-
 @dataclass(frozen=True)
 class LeafBoxSpec(_Section):
     """``scene.kind = "leaf_box"``: leaves uniform in ``box_m`` (Ming's canonical box by

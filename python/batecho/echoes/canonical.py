@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..trees.leaves import Leaves
 from ..flight.poses import Poses
 from ..sonar.sonar import Sonar
+from ..trees.leaves import Leaves
 
 #: Box of the canonical scene, metres: x in [1, 10], y and z in [-2, 2].
 CANONICAL_BOX = ((1.0, 10.0), (-2.0, 2.0), (-2.0, 2.0))

@@ -94,13 +94,31 @@ def simulate(
     if sonar.is_auto:
         # Record from the farthest counting leaf of any pose (the provisional core sonar's
         # record covers the lobe's whole reach, so it finds every counting leaf).
-        far = _core.farthest_members(sc._core, sonar._core, poses.positions, poses.forward,
-                                     poses.up, poses.left)
+        far = _core.farthest_members(
+            sc._core, sonar._core, poses.positions, poses.forward, poses.up, poses.left
+        )
         sonar = sonar.resolve(sonar.record_length_for(float(far.max())))
-    spec, imp, counts = _core.simulate(sc._core, sonar._core, poses.positions, poses.forward,
-                                       poses.up, poses.left, True, "bvh", method, tol)
-    return Echoes(spectrum=spec, freqs=sonar.freqs, impulse=imp, times=sonar.times,
-                  n_leaves=counts.astype(np.int64), sonar=sonar, poses=poses)
+    spec, imp, counts = _core.simulate(
+        sc._core,
+        sonar._core,
+        poses.positions,
+        poses.forward,
+        poses.up,
+        poses.left,
+        True,
+        "bvh",
+        method,
+        tol,
+    )
+    return Echoes(
+        spectrum=spec,
+        freqs=sonar.freqs,
+        impulse=imp,
+        times=sonar.times,
+        n_leaves=counts.astype(np.int64),
+        sonar=sonar,
+        poses=poses,
+    )
 
 
 def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") -> np.ndarray:

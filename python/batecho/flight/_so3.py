@@ -14,6 +14,7 @@ from .._validate import finite, readonly, real_array
 #: The z axis, world up (and body up).
 E3 = np.array([0.0, 0.0, 1.0])
 
+
 def hat(w: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 

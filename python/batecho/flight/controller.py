@@ -23,7 +23,6 @@ from .trajectories import Trajectory
 __all__ = ["SE3Gains", "desired_attitude", "flat_reference", "se3_control"]
 
 
-
 @dataclass(frozen=True, eq=False)
 class SE3Gains:
     """Gains of the geometric controller: position ``k_x`` (N/m), velocity ``k_v`` (N s/m),

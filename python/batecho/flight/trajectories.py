@@ -55,7 +55,9 @@ class Trajectory:
     def _set_heading(
         self, heading: str, target: Any, yaw_deg: Any, default_target: np.ndarray | None
     ) -> None:
-        self.heading, self.target, self._yaw = heading_mode(heading, target, yaw_deg, default_target)
+        self.heading, self.target, self._yaw = heading_mode(
+            heading, target, yaw_deg, default_target
+        )
 
     def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError

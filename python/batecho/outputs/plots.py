@@ -306,8 +306,8 @@ def lobe_surface(sonar, pose, n_alpha: int = 36, n_phi: int = 48):
 
 
 def _scene_leaves(obj: Any):
-    from ..trees.leaves import Leaves
     from ..forest.scene import Scene
+    from ..trees.leaves import Leaves
 
     if isinstance(obj, Leaves):
         return obj

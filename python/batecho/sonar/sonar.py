@@ -108,8 +108,9 @@ class Sonar:
         auto = isinstance(self.n_samples, str)
         if auto and self.n_samples != "auto":
             raise ValueError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
-        if not auto and (isinstance(self.n_samples, bool)
-                         or not isinstance(self.n_samples, (int, np.integer))):
+        if not auto and (
+            isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer))
+        ):
             raise TypeError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
         positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
         if len(tuple(self.band_hz)) != 2:
@@ -203,8 +204,10 @@ class Sonar:
     def _provisional_n(self) -> int:
         reach = self.reach_m()
         if not math.isfinite(reach):
-            raise ValueError("n_samples='auto' with lobe='cone' needs max_range_m (the cone has no "
-                             "range of its own)")
+            raise ValueError(
+                "n_samples='auto' with lobe='cone' needs max_range_m (the cone has no "
+                "range of its own)"
+            )
         return self.record_length_for(reach)
 
     def resolve(self, n_samples: int) -> Sonar:
@@ -223,8 +226,10 @@ class Sonar:
     # Derived quantities -------------------------------------------------------------------
     def _fixed(self, what: str) -> None:
         if self.is_auto:
-            raise ValueError(f"{what} depends on the record length, which n_samples='auto' chooses "
-                             "per simulation: use echoes.sonar, or Sonar.resolve(n_samples)")
+            raise ValueError(
+                f"{what} depends on the record length, which n_samples='auto' chooses "
+                "per simulation: use echoes.sonar, or Sonar.resolve(n_samples)"
+            )
 
     @property
     def bins(self) -> tuple[int, int]:

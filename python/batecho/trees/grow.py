@@ -193,13 +193,19 @@ def grow_tree(
     if branch_choice not in ("height", "random"):
         raise ValueError(f"branch_choice must be 'height' or 'random', got {branch_choice!r}")
     h_ref = ref.trunk_height
-    trunk_h = h_ref if trunk_height is None else positive_scalar(trunk_height, "trunk_height", strict=True, unit="m")
+    trunk_h = (
+        h_ref
+        if trunk_height is None
+        else positive_scalar(trunk_height, "trunk_height", strict=True, unit="m")
+    )
     nb = len(ref.branches) if n_branches is None else integer(n_branches, "n_branches", 1)
     heights = ref.heights
     h0 = (
         max(float(heights.min()) * trunk_h / h_ref, 0.0)
         if first_branch_height is None
-        else positive_scalar(first_branch_height, "first_branch_height", allow_zero=True, strict=True, unit="m")
+        else positive_scalar(
+            first_branch_height, "first_branch_height", allow_zero=True, strict=True, unit="m"
+        )
     )
     ls = positive_scalar(length_scale, "length_scale", strict=True)
     lsd = positive_scalar(length_sd, "length_sd", allow_zero=True, strict=True)

@@ -105,7 +105,9 @@ def grow_lsystem_tree(
     ljit = positive_scalar(length_jitter, "length_jitter", allow_zero=True, strict=True)
     if ljit >= 1:
         raise ValueError(f"length_jitter must be in [0, 1), got {length_jitter!r}")
-    petiole = positive_scalar(petiole_length, "petiole_length", allow_zero=True, strict=True, unit="m")
+    petiole = positive_scalar(
+        petiole_length, "petiole_length", allow_zero=True, strict=True, unit="m"
+    )
     w0 = positive_scalar(trunk_radius, "trunk_radius", strict=True, unit="m")
     wc = positive_scalar(width_contraction, "width_contraction", strict=True)
     sides = integer(bark_sides, "bark_sides", 3)
