@@ -38,5 +38,5 @@ def spawn(gen: np.random.Generator, n: int) -> list[np.random.Generator]:
     if hasattr(gen, "spawn"):
         return list(gen.spawn(n))
     bg = gen.bit_generator
-    seq = getattr(bg, "seed_seq", None) or bg._seed_seq
+    seq = getattr(bg, "seed_seq", None) or bg._seed_seq  # type: ignore[attr-defined]
     return [np.random.Generator(type(bg)(s)) for s in seq.spawn(n)]

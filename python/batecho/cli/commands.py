@@ -112,7 +112,7 @@ def _canonical(out: Path, seed: int) -> list[Path]:
         echoes,
         0,
         title=f"Ming's canonical leaf box: {echoes.n_leaves[0]} leaves "
-        f"in a {sonar.beam.beamwidth_deg:g} deg beam",
+        f"in a {sonar.beamwidth_deg:g} deg beam",
     )
     fig.savefig(out / "canonical_impulse.png", dpi=130)
     plt.close(fig)

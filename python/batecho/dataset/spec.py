@@ -249,11 +249,13 @@ def _coerce(value: Any, name: str, meta: Mapping[str, Any]) -> Any:
             raise SpecError(f"{name} must be a table, got {value!r}")
         out_params: dict[str, Any] = {}
         for k in sorted(value):
-            v = value[k]
-            dist_table = isinstance(v, Mapping) and len(v) == 1 and next(iter(v)) in _DIST_KINDS
-            if isinstance(v, Dist) or dist_table:
-                v = Dist.parse(v, f"{name}.{k}")
-            out_params[str(k)] = v
+            item = value[k]
+            dist_table = (
+                isinstance(item, Mapping) and len(item) == 1 and next(iter(item)) in _DIST_KINDS
+            )
+            if isinstance(item, Dist) or dist_table:
+                item = Dist.parse(item, f"{name}.{k}")
+            out_params[str(k)] = item
         return out_params
     if kind == "section":
         cls = meta["cls"]

@@ -168,7 +168,7 @@ def coordinates(spec: DatasetSpec) -> dict[str, tuple[tuple[str, ...], np.ndarra
     sonar = spec.sonar.make(spec.sonar.beamwidth_deg.low)
     t0, t1 = spec.sonar.time_slice()
     times = sonar.times[t0:t1]
-    out = {
+    out: dict[str, tuple[tuple[str, ...], np.ndarray, str, str]] = {
         "sample": (("sample",), np.arange(spec.n_samples, dtype=np.int64), "1", "sample index"),
         "pulse": (
             ("pulse",),

@@ -110,6 +110,7 @@ def simulate(
         method,
         tol,
     )
+    assert imp is not None  # asked for with impulse=True
     return Echoes(
         spectrum=spec,
         freqs=sonar.freqs,

@@ -40,6 +40,7 @@ def _kinematic_poses(
                 "heading='fixed' or 'look_at'"
             )
     elif mode == "look_at":
+        assert target is not None  # heading_mode gives look_at a target
         fwd = target[None, :] - positions
         bad = np.linalg.norm(fwd, axis=1) <= TINY
         if bad.any():

@@ -109,12 +109,14 @@ class Trajectory:
             out = (np.full(tt.shape, self._yaw), np.zeros(tt.shape), np.zeros(tt.shape))
         elif self.heading == "look_at":
             p, v, a = (self._derivative(tt, k) for k in (0, 1, 2))
+            assert self.target is not None  # set with heading "look_at"
             out = _planar_yaw(self.target[None, :] - p, -v, -a)
         else:
             out = _planar_yaw(*self._travel_direction(tt))
+        yaw, rate, acc = out
         if arr.ndim == 0:
-            return tuple(float(o[0]) for o in out)
-        return tuple(o.reshape(arr.shape) for o in out)
+            return float(yaw[0]), float(rate[0]), float(acc[0])
+        return yaw.reshape(arr.shape), rate.reshape(arr.shape), acc.reshape(arr.shape)
 
     def yaw(self, t: Any) -> Any:
         """Yaw reference (rad, from +x toward +y) following the heading mode."""

@@ -45,8 +45,6 @@ MAX_CANDIDATES = 50_000_000
 #: The paper's 20 m x 20 m field ``(xmin, xmax, ymin, ymax)``, m.
 PAPER_WINDOW: tuple[float, float, float, float] = (0.0, 20.0, 0.0, 20.0)
 
-#: A window: ``(xmin, xmax, ymin, ymax)`` in m, or a (k, 2) array of polygon vertices in m.
-Window = tuple[float, float, float, float] | np.ndarray
 #: An intensity: ``f(x, y) -> points per m^2`` on NumPy arrays (or a :class:`RasterIntensity`).
 Intensity = Callable[[np.ndarray, np.ndarray], Any]
 
@@ -121,6 +119,11 @@ class _Window:
         if x.size == 0:
             return np.zeros(x.shape, dtype=bool)
         return self._path.contains_points(np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
+
+
+#: A window: ``(xmin, xmax, ymin, ymax)`` in m, or a (k, 2) array of polygon vertices in m
+#: (or one already checked).
+Window = tuple[float, float, float, float] | np.ndarray | _Window
 
 
 def _as_window(window: Any) -> _Window:

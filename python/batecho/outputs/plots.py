@@ -123,7 +123,7 @@ def plot_spectrum(echoes, index: int = 0, ax=None):
 
 def plot_impulses(
     echoes,
-    indices: Sequence[int],
+    indices: Sequence[int] | np.ndarray,
     ncols: int = 2,
     titles: Sequence[str] | None = None,
     max_range_m: float | None = None,

@@ -133,6 +133,7 @@ def plot_forest_map(
 
     from ..forest.ipp import _as_window
 
+    fig: Any
     if ax is None:
         fig, ax2 = plt.subplots(figsize=(7.0, 6.0))
     else:

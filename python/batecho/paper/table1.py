@@ -258,7 +258,7 @@ def table1(
         raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
     if isinstance(timing_runs, bool) or not isinstance(timing_runs, int) or timing_runs < 1:
         raise ValueError(f"timing_runs must be an integer >= 1, got {timing_runs!r}")
-    opts = {"method": method, "tol": float(tol)}
+    opts: dict[str, Any] = {"method": method, "tol": float(tol)}
     sonar = paper_sonar(beamwidth_deg, **(sonar_params or {}))
     settings: dict[str, Any] = {
         "method": method,

@@ -90,9 +90,10 @@ class SceneFile:
             if key in ("beam", "receiver"):
                 if val:
                     try:
-                        kw[key] = Beam(
-                            **{k: tuple(v) if isinstance(v, list) else v for k, v in val.items()}
-                        )
+                        beam_kw: dict[str, Any] = {
+                            k: tuple(v) if isinstance(v, list) else v for k, v in val.items()
+                        }
+                        kw[key] = Beam(**beam_kw)
                     except (TypeError, ValueError) as exc:
                         raise self._err(f"[sonar.{key}] {exc}") from None
             elif key == "absorption":

@@ -58,7 +58,7 @@ def flight_plan(fl: dict[str, Any], center_xy: np.ndarray) -> FlightPlan:
     default_target = np.array([center_xy[0], center_xy[1], z])
     if path == "circle":
         radius = fl.get("radius", 6.2)
-        traj = trajectories.Circle(
+        traj: trajectories.Trajectory = trajectories.Circle(
             center, radius, z, fl["speed"], start_angle_deg=fl["start_angle_deg"], **head_kw
         )
     elif path == "figure_eight":

@@ -250,7 +250,7 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
         plt.close(fig)
         files.append(out / name)
 
-    bw = st.sonar.beam.beamwidth_deg
+    bw = None if st.sonar.beam is None else st.sonar.beam.beamwidth_deg
     beam = f"{bw:g} deg beam" if bw is not None else "custom beam"
     for name in oc["plots"]:
         say(f"plotting {name}")

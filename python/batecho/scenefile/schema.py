@@ -332,7 +332,7 @@ def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
             missing = allowed - set(v)
             if missing:
                 raise _fail(where, key, f"missing {', '.join(sorted(missing))}")
-            out = {"centers": _points(v["centers"], 2, f"{where}.{key}", "centers")}
+            out: dict[str, Any] = {"centers": _points(v["centers"], 2, f"{where}.{key}", "centers")}
             ls = v["length_scales"]
             out["length_scales"] = (
                 _nums(ls, None, f"{where}.{key}", "length_scales", "an array of numbers (m)")

@@ -76,9 +76,9 @@ class Beam:
         if self.beamwidth_deg is not None:
             s = sigma_from_beamwidth_deg(self.beamwidth_deg)
             return s, s
-        s = np.atleast_1d(np.asarray(self.sigma_deg, dtype=np.float64))
-        sx = math.radians(float(s[0]))
-        sy = math.radians(float(s[-1]))
+        sig = np.atleast_1d(np.asarray(self.sigma_deg, dtype=np.float64))
+        sx = math.radians(float(sig[0]))
+        sy = math.radians(float(sig[-1]))
         return sx, sy
 
     def _core_tuple(self):

@@ -89,9 +89,11 @@ class Sonar:
     def __post_init__(self):
         if self.beam is not None and self.beamwidth_deg is not None:
             raise ValueError("give beamwidth_deg or beam, not both")
-        if self.beam is None:
+        beam = self.beam
+        if beam is None:
             bw = DEFAULT_BEAMWIDTH_DEG if self.beamwidth_deg is None else self.beamwidth_deg
-            object.__setattr__(self, "beam", Beam(beamwidth_deg=bw))
+            beam = Beam(beamwidth_deg=bw)
+            object.__setattr__(self, "beam", beam)
         for name, b in (("beam", self.beam), ("receiver", self.receiver)):
             if b is not None and not isinstance(b, Beam):
                 raise TypeError(f"{name} must be a batecho.Beam, got {type(b).__name__}")
@@ -134,7 +136,7 @@ class Sonar:
             a = self.absorption
             atm = (float(a.temperature_c), float(a.relative_humidity), float(a.pressure_pa))
         core = _core.Sonar(
-            self.beam._core_tuple(),
+            beam._core_tuple(),
             None if self.receiver is None else self.receiver._core_tuple(),
             self.lobe,
             float(self.threshold_db),
@@ -191,8 +193,10 @@ class Sonar:
             return float(self.max_range_m)
         level = 10.0 ** (self.threshold_db / 20.0) * self.p_ref_pa
         K = self.r0_m * self.r0_m * self.p0_pa / level
-        rx = self.beam if self.receiver is None else self.receiver
-        reach = math.sqrt(K * self.beam.amplitude * rx.amplitude)
+        tx = self.beam
+        assert tx is not None  # set in __post_init__
+        rx = tx if self.receiver is None else self.receiver
+        reach = math.sqrt(K * tx.amplitude * rx.amplitude)
         return reach if self.max_range_m is None else min(reach, float(self.max_range_m))
 
     def record_length_for(self, range_m: float) -> int:
@@ -247,7 +251,7 @@ class Sonar:
     def delta_f(self) -> float:
         """Bin spacing fs / n_samples (Hz)."""
         self._fixed("delta_f")
-        return self.fs / self.n_samples
+        return self.fs / int(self.n_samples)
 
     @property
     def freqs(self) -> np.ndarray:
@@ -259,13 +263,13 @@ class Sonar:
     def times(self) -> np.ndarray:
         """(n_samples,) sample times (s)."""
         self._fixed("times")
-        return np.arange(self.n_samples) / self.fs
+        return np.arange(int(self.n_samples)) / self.fs
 
     @property
     def record_range_m(self) -> float:
         """Range covered by the record, ``v n / (2 fs)`` (m)."""
         self._fixed("record_range_m")
-        return self.sound_speed * self.n_samples / (2.0 * self.fs)
+        return self.sound_speed * int(self.n_samples) / (2.0 * self.fs)
 
     @property
     def range_limit_m(self) -> float:

@@ -13,7 +13,7 @@ import math
 import numbers
 import re
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -266,7 +266,9 @@ class LSystem:
         )
         # Deterministic string rules on a string without parameters: str.translate rewrites
         # every symbol in parallel, exactly.
-        self._table = {ord(s): r.successors[0] for s, r in self._rules.items()} if simple else None
+        self._table = (
+            {ord(s): cast(str, r.successors[0]) for s, r in self._rules.items()} if simple else None
+        )
         self._rng = np.random.default_rng(seed)
 
     @property

@@ -374,7 +374,7 @@ def write_obj(
     if mtl:
         lines.append(f"mtllib {mtl_path.name}")
     lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in bv.tolist())
-    cards = leaf_cards(leaves, k).reshape(-1, 3) if n else np.zeros((0, 3))
+    cards = leaf_cards(leaves, k).reshape(-1, 3) if leaves is not None else np.zeros((0, 3))
     lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in cards.tolist())
 
     used: list[tuple[str, bool]] = []

@@ -136,11 +136,11 @@ def turtle(
     *,
     width: float = 1.0,
     width_decrement: float = DEFAULT_WIDTH_DECREMENT,
-    tropism: Sequence[float] | None = None,
+    tropism: Sequence[float] | np.ndarray | None = None,
     elasticity: float = 0.0,
-    origin: Sequence[float] = (0.0, 0.0, 0.0),
-    heading: Sequence[float] = (0.0, 0.0, 1.0),
-    up: Sequence[float] = (1.0, 0.0, 0.0),
+    origin: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    heading: Sequence[float] | np.ndarray = (0.0, 0.0, 1.0),
+    up: Sequence[float] | np.ndarray = (1.0, 0.0, 0.0),
     marks: str = "",
 ) -> Segments:
     """Interpret an L-system string with ABOP's 3-D turtle.
@@ -181,13 +181,12 @@ def turtle(
     if np.linalg.norm(u) < 1e-12:
         raise ValueError("up must not be parallel to heading")
     u = u / np.linalg.norm(u)
-    frame = np.column_stack([h, np.cross(u, h), u])  # [H L U], L = U x H
 
-    # The frame as 9 floats (H, L, U): each rotation mixes only two of the columns, which is much
-    # faster in scalar Python than 3x3 NumPy products for strings of ~1e5 modules.
+    # The frame [H L U] (L = U x H) as 9 floats: each rotation mixes only two of the columns,
+    # which is much faster in scalar Python than 3x3 NumPy products for strings of ~1e5 modules.
     hx, hy, hz = (float(x) for x in h)
     ux, uy, uz = (float(x) for x in u)
-    frame = (hx, hy, hz, uy * hz - uz * hy, uz * hx - ux * hz, ux * hy - uy * hx, ux, uy, uz)
+    frame: Frame = (hx, hy, hz, uy * hz - uz * hy, uz * hx - ux * hz, ux * hy - uy * hx, ux, uy, uz)
     px, py, pz = (float(x) for x in pos)
     default_turn = {
         sym: (axis, math.cos(sign * delta), math.sin(sign * delta))
@@ -195,7 +194,7 @@ def turtle(
     }
     tt = None if tvec is None else (float(tvec[0]), float(tvec[1]), float(tvec[2]))
     marks_set = set(marks)
-    stack: list[tuple[float, float, float, tuple[float, ...], float, int]] = []
+    stack: list[tuple[float, float, float, Frame, float, int]] = []
     rows: list[tuple[float, ...]] = []  # start, end, frame
     widths: list[float] = []
     depths: list[int] = []
@@ -234,7 +233,17 @@ def turtle(
                 )
             px, py, pz, frame, w, _ = stack.pop()
         elif sym == "|":
-            frame = (-frame[0], -frame[1], -frame[2], -frame[3], -frame[4], -frame[5], *frame[6:])
+            frame = (
+                -frame[0],
+                -frame[1],
+                -frame[2],
+                -frame[3],
+                -frame[4],
+                -frame[5],
+                frame[6],
+                frame[7],
+                frame[8],
+            )
         elif sym == "!":
             w = params[0] if params else w * wdec
         elif sym == "$":
