@@ -177,7 +177,7 @@ class Forest:
         scale_leaves: bool = False,
     ) -> Forest:
         """Trees at the points of an inhomogeneous Poisson process with ``intensity`` (trees
-        per m², a callable ``f(x, y)``) on ``window`` (see :func:`~batecho.ipp.sample_ipp`),
+        per m², a callable ``f(x, y)``) on ``window`` (see :func:`~batecho.forest.ipp.sample_ipp`),
         then as :meth:`from_positions`."""
         gen, seed = generator(rng), int_seed(rng)
         pos_gen, place, trees = spawn(gen, 3)
@@ -205,8 +205,8 @@ class Forest:
         variants: int | None = None,
         scale_sd: float = 0.0,
     ) -> Forest:
-        """The paper's forest: :func:`~batecho.ipp.paper_intensity` (two squared-exponential
-        clumps, about 6.6 trees expected) on the 20 m x 20 m :data:`~batecho.ipp.PAPER_WINDOW`."""
+        """The paper's forest: :func:`~batecho.forest.ipp.paper_intensity` (two squared-exponential
+        clumps, about 6.6 trees expected) on the 20 m x 20 m :data:`~batecho.forest.ipp.PAPER_WINDOW`."""
         return cls.from_ipp(
             paper_intensity(), PAPER_WINDOW, rng, tree, tree_params, variants, scale_sd
         )

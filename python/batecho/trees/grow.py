@@ -159,7 +159,7 @@ def grow_tree(
         The reference tree (default: the shipped ``data/reference_tree.obj``; loaded once and
         cached). See :func:`load_reference` for what an OBJ of your own needs.
     trunk_height, n_branches, first_branch_height : optional
-        The L-system trunk (:func:`~batecho.lsystem.trunk_branching`), m; default the
+        The L-system trunk (:func:`~batecho.trees.branching.trunk_branching`), m; default the
         reference's trunk height, number of branches and lowest branch height. The reference
         trunk is stretched vertically to ``trunk_height``.
     branching_angle_deg, divergence_deg : float

@@ -23,7 +23,7 @@ def load_tree(
     transform: Any = None,
     trunk_pattern: str = "trunk",
 ) -> Tree:
-    """A tree from an OBJ file as it is (see :func:`~batecho.meshio.load_obj` for the
+    """A tree from an OBJ file as it is (see :func:`~batecho.trees.objfile.load_obj` for the
     arguments). Bark groups whose name contains ``trunk_pattern`` (case-insensitive) are the
     trunk, the other bark groups its first-level branches. A leaf belongs to the branch whose
     name its group's name contains (as in the ``leaves_branch_00`` groups that

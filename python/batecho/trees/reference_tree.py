@@ -163,7 +163,7 @@ def load_reference(
 ) -> ReferenceTree:
     """A reference tree for :func:`grow_tree`: the shipped one (``None``), an OBJ path (with a
     ``.json`` structure sidecar beside it if there is one; both are loaded once per file version
-    and options, then cached) or a loaded :class:`~batecho.meshio.Mesh` (derived anew each
+    and options, then cached) or a loaded :class:`~batecho.trees.objfile.Mesh` (derived anew each
     time: pass the returned ReferenceTree on to grow many trees from it).
 
     Without a sidecar the structure is derived per bark group: groups whose name contains

@@ -187,7 +187,7 @@ class Tree:
         return self.leaf_branch + 1, names
 
     def to_mesh(self) -> Mesh:
-        """The tree as a :class:`~batecho.meshio.Mesh` (groups: bark groups, then leaf groups
+        """The tree as a :class:`~batecho.trees.objfile.Mesh` (groups: bark groups, then leaf groups
         ``leaves`` and ``leaves_<branch>``)."""
         lg, lnames = self._leaf_groups()
         nb = len(self.bark_group_names)
