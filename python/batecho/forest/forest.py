@@ -205,8 +205,9 @@ class Forest:
         variants: int | None = None,
         scale_sd: float = 0.0,
     ) -> Forest:
-        """The paper's forest: :func:`~batecho.forest.ipp.paper_intensity` (two squared-exponential
-        clumps, about 6.6 trees expected) on the 20 m x 20 m :data:`~batecho.forest.ipp.PAPER_WINDOW`."""
+        """The paper's forest: :func:`~batecho.forest.ipp.paper_intensity` (two
+        squared-exponential clumps, about 6.6 trees expected) on the 20 m x 20 m
+        :data:`~batecho.forest.ipp.PAPER_WINDOW`."""
         return cls.from_ipp(
             paper_intensity(), PAPER_WINDOW, rng, tree, tree_params, variants, scale_sd
         )
