@@ -41,9 +41,11 @@ def test_import_graph_finds_a_cycle(tmp_path):
     (pkg / "a.py").write_text("from .sub import b\n")
     (pkg / "sub" / "__init__.py").write_text("")
     (pkg / "sub" / "b.py").write_text("def f():\n    from ..a import g\n")
-    problems = import_graph.check(pkg)
+    problems = import_graph.check(pkg, layers=None)
     assert any("module cycle" in p and "batecho.a" in p for p in problems)
     assert any(p.startswith("subpackage cycle") for p in problems)
+    layered = import_graph.check(pkg, layers=(("sub",), ("a",)))
+    assert "layer: sub imports a, from a later layer" in layered
 
 
 def test_import_batecho_loads_no_heavy_module():

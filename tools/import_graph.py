@@ -12,6 +12,9 @@ Two graphs must be free of cycles:
 * the subpackages and top-level modules (``forest`` -> ``trees``), leaving out the package's
   own ``__init__`` (the public facade, which imports from all of them).
 
+And the subpackages follow the data in :data:`LAYERS`: each imports only from earlier layers,
+never from a sibling of its own layer, and every subpackage or top-level module has a layer.
+
 Usage::
 
     python tools/import_graph.py            # check; exit status 1 and the cycles if any
@@ -28,6 +31,21 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE_DIR = ROOT / "python" / "batecho"
+
+#: batecho's subpackages and top-level modules in import order: trees -> forest -> flight ->
+#: sonar -> echoes -> outputs -> scene files, paper, datasets -> command line.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("_core", "_validate", "_geometry", "_random", "_optional"),
+    ("trees",),
+    ("forest",),
+    ("flight",),
+    ("sonar",),
+    ("echoes",),
+    ("reference", "outputs"),
+    ("scenefile", "paper", "dataset", "plotting", "treeplots", "trajectories"),
+    ("cli",),
+    ("__main__",),
+)
 
 
 def module_names(package_dir: Path) -> dict[str, Path]:
@@ -206,8 +224,26 @@ def cycle_path(graph: dict[str, set[str]], comp: list[str]) -> list[str]:
         path.append(node)
 
 
-def check(package_dir: Path = PACKAGE_DIR) -> list[str]:
-    """Problems found (empty when both graphs are acyclic)."""
+def layer_problems(pkg: dict[str, set[str]], layers: tuple[tuple[str, ...], ...]) -> list[str]:
+    """Imports against the layer order, and subpackages without a layer."""
+    rank = {name: i for i, layer in enumerate(layers) for name in layer}
+    problems = []
+    for name in sorted(pkg):
+        if name not in rank:
+            problems.append(f"layer: {name} is in no layer of tools/import_graph.py LAYERS")
+            continue
+        for dep in sorted(pkg[name]):
+            if dep in rank and rank[dep] >= rank[name]:
+                where = "its own layer" if rank[dep] == rank[name] else "a later layer"
+                problems.append(f"layer: {name} imports {dep}, from {where}")
+    return problems
+
+
+def check(
+    package_dir: Path = PACKAGE_DIR, layers: tuple[tuple[str, ...], ...] | None = LAYERS
+) -> list[str]:
+    """Problems found (empty when both graphs are acyclic and, unless ``layers`` is None, the
+    subpackages keep to their layers)."""
     graph = build_graph(package_dir)
     problems = []
     for comp in strongly_connected(graph):
@@ -215,6 +251,8 @@ def check(package_dir: Path = PACKAGE_DIR) -> list[str]:
     pkg = package_graph(graph)
     for comp in strongly_connected(pkg):
         problems.append("subpackage cycle: " + " -> ".join(cycle_path(pkg, comp)))
+    if layers is not None:
+        problems += layer_problems(pkg, layers)
     return problems
 
 
@@ -234,7 +272,7 @@ def main(argv: list[str] | None = None) -> int:
         print(p, file=sys.stderr)
     if problems:
         return 1
-    print(f"no import cycle among {len(graph)} modules")
+    print(f"no import cycle among {len(graph)} modules; the subpackages keep to their layers")
     return 0
 
 
