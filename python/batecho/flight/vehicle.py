@@ -17,12 +17,9 @@ W (body), rotor speeds w_i (rad/s)::
 90, 180, 270 deg. Rotor i's reaction torque about body z is ``s_i k_m w_i^2`` with
 ``s = (+1, -1, +1, -1)``.
 
-Controller: Lee, Leok & McClamroch (2010), "Geometric tracking control of a quadrotor UAV on
-SE(3)", IEEE CDC, rewritten for z up. Its feed-forward angular velocity and acceleration come
-from the reference by differential flatness (jerk, snap, yaw rate and yaw acceleration), and
-the known body drag at the reference velocity is fed forward too (``drag_feedforward``).
-The thrust and moments are allocated to rotor speeds by inverting the mixer matrix, with
-each rotor's thrust clipped to its range.
+Control: the thrust and moments of the SE(3) controller (Lee, Leok & McClamroch 2010, in
+:mod:`~batecho.flight.controller`) are allocated to rotor speeds by inverting the mixer
+matrix, with each rotor's thrust clipped to its range.
 
 Integration: fixed-step classical RK4 with the controller sampled once per step (zero-order
 hold, like a flight controller running at 1/dt) and R re-orthonormalised after every step
