@@ -19,7 +19,7 @@ import numpy as np
 
 import batecho
 from batecho import reference
-from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+from batecho.echoes.canonical import canonical_leaf_box, canonical_pose, canonical_sonar
 from batecho.paper import machine_info
 
 

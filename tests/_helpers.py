@@ -26,8 +26,9 @@ def frame_points(pose: batecho.Poses, r, az, el) -> np.ndarray:
     return pose.positions[0] + r[:, None] * e
 
 
-def kinked_leaf_at_the_top(sonar: batecho.Sonar, radius: float, live: int,
-                           r: float) -> batecho.Leaves:
+def kinked_leaf_at_the_top(
+    sonar: batecho.Sonar, radius: float, live: int, r: float
+) -> batecho.Leaves:
     """One paper-model leaf on the x axis at range r whose corner (cos(B(c) beta) turning
     positive) lies at band bin n_bins - live: near grazing incidence, live only in the band's
     top `live` bins, where its values are ~1e-4 of the factor's scale A(c)."""

@@ -33,6 +33,6 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 def canonical_leaves():
     """Ming's canonical leaf box (a smaller copy for tests): 25 leaves/m^3 in
     x in [1, 10], y, z in [-2, 2]; radius N(2 cm, 0.2 cm); normals at N(85, 5) deg from x."""
-    from batecho.examples import canonical_leaf_box
+    from batecho.echoes.canonical import canonical_leaf_box
 
     return canonical_leaf_box(np.random.default_rng(2017))

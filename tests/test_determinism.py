@@ -14,7 +14,7 @@ SCRIPT = textwrap.dedent(
     import sys
     import numpy as np
     import batecho
-    from batecho.examples import canonical_leaf_box
+    from batecho.echoes.canonical import canonical_leaf_box
     leaves = canonical_leaf_box(np.random.default_rng(3))
     extra = batecho.Leaves(leaves.centers * [1.0, 0.5, 0.5], leaves.normals, leaves.radii)
     leaves = batecho.Leaves.concatenate([leaves, extra])
@@ -62,7 +62,7 @@ def test_results_are_bit_identical_with_one_and_two_threads(tmp_path):
 
 def test_repeated_calls_are_bit_identical():
     import batecho
-    from batecho.examples import canonical_leaf_box
+    from batecho.echoes.canonical import canonical_leaf_box
 
     leaves = canonical_leaf_box(np.random.default_rng(4))
     scene = batecho.Scene(leaves)

@@ -55,7 +55,7 @@ def test_exact_matches_reference_with_many_leaves_at_one_range(seed, n, r):
 
 @given(st.integers(0, 2**32 - 1))
 def test_exact_matches_reference_on_the_canonical_box(seed):
-    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+    from batecho.echoes.canonical import canonical_leaf_box, canonical_pose, canonical_sonar
 
     leaves = canonical_leaf_box(np.random.default_rng(seed), density_per_m3=5.0)
     assert_agree(leaves, canonical_sonar(), canonical_pose())

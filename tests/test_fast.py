@@ -38,8 +38,9 @@ def test_auto_is_within_tol_of_exact_on_generated_scenes(case, tol):
     assert_within_tol(leaves, sonar, pose, tol, method="auto")
 
 
-@given(st.integers(0, 2**32 - 1), st.integers(200, 3000), st.floats(0.3, 9.5),
-       st.sampled_from(TOLS))
+@given(
+    st.integers(0, 2**32 - 1), st.integers(200, 3000), st.floats(0.3, 9.5), st.sampled_from(TOLS)
+)
 def test_fast_is_within_tol_with_many_leaves_at_one_range(seed, n, r, tol):
     rng = np.random.default_rng(seed)
     sonar = Sonar(beamwidth_deg=40.0)
@@ -50,8 +51,13 @@ def test_fast_is_within_tol_with_many_leaves_at_one_range(seed, n, r, tol):
     assert_within_tol(leaves, sonar, pose, tol)
 
 
-@given(st.floats(0.003, 0.05), st.integers(1, 300), st.floats(0.5, 9.5), st.booleans(),
-       st.sampled_from([1e-9, 1e-11]))
+@given(
+    st.floats(0.003, 0.05),
+    st.integers(1, 300),
+    st.floats(0.5, 9.5),
+    st.booleans(),
+    st.sampled_from([1e-9, 1e-11]),
+)
 def test_fast_is_within_tol_for_a_kinked_leaf_with_a_tiny_live_part(radius, live, r, atm, tol):
     # One paper-model leaf near grazing incidence whose corner (cos(B(c) beta) turning
     # positive) lies in the band's top `live` bins: its live values are ~1e-4 of the factor's
@@ -64,11 +70,18 @@ def test_fast_is_within_tol_for_a_kinked_leaf_with_a_tiny_live_part(radius, live
 
 
 @pytest.mark.parametrize("tol", TOLS)
-@pytest.mark.parametrize("kw", [{}, {"absorption": batecho.Atmosphere()},
-                                {"leaf_model": "physical_optics"}, {"spreading": False},
-                                {"window": "rect", "beamwidth_deg": 60.0}])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"absorption": batecho.Atmosphere()},
+        {"leaf_model": "physical_optics"},
+        {"spreading": False},
+        {"window": "rect", "beamwidth_deg": 60.0},
+    ],
+)
 def test_fast_is_within_tol_on_the_canonical_box(tol, kw):
-    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+    from batecho.echoes.canonical import canonical_leaf_box, canonical_pose, canonical_sonar
 
     leaves = canonical_leaf_box(np.random.default_rng(3))
     assert_within_tol(leaves, canonical_sonar(**kw), canonical_pose(), tol)
@@ -85,8 +98,12 @@ def test_fast_works_with_few_band_bins():
     assert sonar.n_bins < 10
     rng = np.random.default_rng(1)
     n = 300
-    c = frame_points(Poses([0, 0, 0], [1, 0, 0]), rng.uniform(0.5, 0.8, n),
-                     rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n))
+    c = frame_points(
+        Poses([0, 0, 0], [1, 0, 0]),
+        rng.uniform(0.5, 0.8, n),
+        rng.uniform(-0.3, 0.3, n),
+        rng.uniform(-0.3, 0.3, n),
+    )
     leaves = Leaves(c, rng.normal(size=(n, 3)), np.full(n, 0.02))
     assert_within_tol(leaves, sonar, Poses([0, 0, 0], [1, 0, 0]), 1e-9)
 
@@ -99,7 +116,7 @@ def test_fast_refuses_tolerances_outside_its_range(tol):
 
 
 def test_auto_below_the_fast_floor_is_exact():
-    from batecho.examples import canonical_leaf_box, canonical_pose, canonical_sonar
+    from batecho.echoes.canonical import canonical_leaf_box, canonical_pose, canonical_sonar
 
     leaves = canonical_leaf_box(np.random.default_rng(8))
     exact = simulate(leaves, canonical_sonar(), canonical_pose(), method="exact")

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from batecho.quadrotor import Gusts, Quadrotor, QuadState, SE3Gains, SonarMount
+from batecho.flight import Gusts, Quadrotor, QuadState, SE3Gains, SonarMount
 from batecho.trajectories import (
     Circle,
     FigureEight,

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 
 import batecho
 from batecho.forest import Forest
-from batecho.ipp import PAPER_WINDOW, paper_intensity
+from batecho.forest.ipp import PAPER_WINDOW, paper_intensity
 from batecho.trees import Tree, grow_lsystem_tree, grow_tree
 
 SMALL = {"n_levels": 2}  # a quick L-system tree (4 + 16 branches, 320 leaves)

@@ -1,4 +1,4 @@
-"""Tests of the inhomogeneous Poisson process sampler (batecho.ipp).
+"""Tests of the inhomogeneous Poisson process sampler (batecho.forest.ipp).
 
 Statistical tests use fixed seeds, so they are deterministic. Each statistical check rejects at
 a two-sided significance ALPHA = 1e-4, so a correct sampler fails a given check for a given
@@ -17,7 +17,7 @@ from matplotlib.path import Path
 from scipy import integrate, stats
 from scipy.special import ndtr
 
-from batecho.ipp import (
+from batecho.forest.ipp import (
     PAPER_WINDOW,
     IPPWarning,
     RasterIntensity,

@@ -1,5 +1,5 @@
-"""Tests for batecho.lsystem: L-system rewriting (deterministic, stochastic, parametric), the
-ABOP 3-D turtle and the trunk branching."""
+"""Tests for batecho.trees.lsystem, .turtle and .branching: L-system rewriting (deterministic,
+stochastic, parametric), the ABOP 3-D turtle and the trunk branching."""
 
 from __future__ import annotations
 
@@ -10,18 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from batecho.lsystem import (
+from batecho.trees.branching import Branching, trunk_branching
+from batecho.trees.lsystem import LSystem, Module, module_string, parse_modules
+from batecho.trees.turtle import (
     DEFAULT_ANGLE_DEG,
-    Branching,
-    LSystem,
-    Module,
     Segments,
-    module_string,
-    parse_modules,
     rotation_h,
     rotation_l,
     rotation_u,
-    trunk_branching,
     turtle,
 )
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from batecho import _core
-from batecho.leaves import Leaves
-from batecho.meshio import (
+from batecho.trees.leaves import Leaves
+from batecho.trees.objfile import (
     DEFAULT_LEAF_PATTERNS,
     Mesh,
     ObjWarning,

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import batecho
-from batecho.examples import canonical_leaf_box
+from batecho.echoes.canonical import canonical_leaf_box
 from batecho.paper import (
     PAPER_TABLE1,
     Table1Result,

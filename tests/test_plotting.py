@@ -14,7 +14,7 @@ import pytest
 from matplotlib.figure import Figure
 
 import batecho
-from batecho.examples import canonical_leaf_box
+from batecho.echoes.canonical import canonical_leaf_box
 from batecho.paper import forest_available
 from batecho.plotting import (
     lobe_surface,

@@ -14,8 +14,9 @@ AXIS = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
 def leaves_at(ranges, seed=0):
     rng = np.random.default_rng(seed)
     n = len(ranges)
-    c = frame_points(AXIS, np.asarray(ranges, float), rng.uniform(-0.1, 0.1, n),
-                     rng.uniform(-0.1, 0.1, n))
+    c = frame_points(
+        AXIS, np.asarray(ranges, float), rng.uniform(-0.1, 0.1, n), rng.uniform(-0.1, 0.1, n)
+    )
     return Leaves(c, rng.normal(size=(n, 3)), np.full(n, 0.02))
 
 

@@ -49,8 +49,11 @@ def mp_terms(leaves: Leaves, sonar: Sonar, pose: Poses, bins: np.ndarray) -> np.
             az, el = mp.atan2(el_, ed), mp.atan2(eu, mp.sqrt(ed * ed + el_ * el_))
             G = mp.exp(-a_coef * (az * az + el * el)) ** 2
             nn = [mp.mpf(float(x)) for x in nv]
-            cr = [e[1] * nn[2] - e[2] * nn[1], e[2] * nn[0] - e[0] * nn[2],
-                  e[0] * nn[1] - e[1] * nn[0]]
+            cr = [
+                e[1] * nn[2] - e[2] * nn[1],
+                e[2] * nn[0] - e[0] * nn[2],
+                e[0] * nn[1] - e[1] * nn[0],
+            ]
             cos_b = sum(x * y for x, y in zip(e, nn, strict=True))
             beta = mp.atan2(mp.sqrt(sum(x * x for x in cr)), cos_b)
             beta = min(beta, mp.pi - beta)
@@ -78,8 +81,9 @@ AXIS = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
 
 def few_leaves(rng, ranges, spread=0.05, radius=0.02):
     n = len(ranges)
-    c = frame_points(AXIS, np.asarray(ranges), rng.uniform(-spread, spread, n),
-                     rng.uniform(-spread, spread, n))
+    c = frame_points(
+        AXIS, np.asarray(ranges), rng.uniform(-spread, spread, n), rng.uniform(-spread, spread, n)
+    )
     return Leaves(c, rng.normal(size=(n, 3)), np.full(n, radius))
 
 
@@ -87,8 +91,9 @@ def test_phases_up_to_1e6_rad_match_mpmath():
     # r = 340 m: 2 k r = 2 (2 pi 80 kHz / 340) 340 = 1.0e6 rad at the top of the band.
     rng = np.random.default_rng(1)
     n = 2 * round(400 / 340 * 400e3)  # record range v n / (2 fs) = 400 m
-    sonar = Sonar(lobe="cone", cone_half_angle_deg=10.0, max_range_m=400.0, n_samples=n,
-                  beamwidth_deg=30.0)
+    sonar = Sonar(
+        lobe="cone", cone_half_angle_deg=10.0, max_range_m=400.0, n_samples=n, beamwidth_deg=30.0
+    )
     leaves = few_leaves(rng, [339.9, 340.0, 340.05, 150.3], spread=0.01)
     bins = np.linspace(0, sonar.n_bins - 1, 25).astype(int)
     got = simulate(leaves, sonar, AXIS).spectrum[0, bins]
@@ -127,8 +132,11 @@ def test_coincident_leaves_sum_to_n_times_one_leaf():
     rng = np.random.default_rng(3)
     one = few_leaves(rng, [3.7])
     n = 4096
-    many = Leaves(np.repeat(one.centers, n, axis=0), np.repeat(one.normals, n, axis=0),
-                  np.repeat(one.radii, n))
+    many = Leaves(
+        np.repeat(one.centers, n, axis=0),
+        np.repeat(one.normals, n, axis=0),
+        np.repeat(one.radii, n),
+    )
     sonar = Sonar(beamwidth_deg=30.0)
     a = simulate(one, sonar, AXIS).spectrum
     b = simulate(many, sonar, AXIS)
@@ -165,8 +173,13 @@ def test_leaves_at_the_ka_guard_match_mpmath(model):
 
 
 def test_records_of_1e6_samples_match_mpmath_and_place_echoes_right():
-    sonar = Sonar(beamwidth_deg=30.0, n_samples=1_000_000, lobe="cone", cone_half_angle_deg=15.0,
-                  max_range_m=400.0)
+    sonar = Sonar(
+        beamwidth_deg=30.0,
+        n_samples=1_000_000,
+        lobe="cone",
+        cone_half_angle_deg=15.0,
+        max_range_m=400.0,
+    )
     assert sonar.n_bins == 50_001
     rng = np.random.default_rng(6)
     ranges = [5.0, 57.3, 233.0]
@@ -177,17 +190,21 @@ def test_records_of_1e6_samples_match_mpmath_and_place_echoes_right():
     env = echo.envelope()[0]
     for r in ranges:
         t = round(2 * r / sonar.sound_speed * sonar.fs)
-        window = env[t - 50:t + 51]
+        window = env[t - 50 : t + 51]
         assert abs(int(np.argmax(window)) - 50) <= 1
     full = np.zeros(sonar.n_samples // 2 + 1, dtype=complex)
     k0, k1 = sonar.bins
-    full[k0:k1 + 1] = echo.spectrum[0]
-    np.testing.assert_allclose(echo.impulse[0], 2 * np.fft.irfft(full, sonar.n_samples),
-                               atol=1e-15 * np.abs(echo.impulse).max())
+    full[k0 : k1 + 1] = echo.spectrum[0]
+    np.testing.assert_allclose(
+        echo.impulse[0],
+        2 * np.fft.irfft(full, sonar.n_samples),
+        atol=1e-15 * np.abs(echo.impulse).max(),
+    )
 
 
-@pytest.mark.parametrize(("radius", "live", "r"), [(0.003, 82, 4.0), (0.0056, 8, 9.48),
-                                                   (0.01, 34, 1.0)])
+@pytest.mark.parametrize(
+    ("radius", "live", "r"), [(0.003, 82, 4.0), (0.0056, 8, 9.48), (0.01, 34, 1.0)]
+)
 def test_a_kinked_leaf_with_a_tiny_live_part_matches_mpmath_to_the_cosines_floor(radius, live, r):
     # Near grazing incidence with the corner (cos(B(c) beta) turning positive) in the band's
     # top `live` bins, the live values are ~1e-4 of the factor's scale A(c); in f64, B(c) beta
@@ -202,7 +219,11 @@ def test_a_kinked_leaf_with_a_tiny_live_part_matches_mpmath_to_the_cosines_floor
     assert abs(np.count_nonzero(want) - live) <= 1
     exact = simulate(leaf, sonar, AXIS, method="exact").spectrum[0, bins]
     assert rel_err(exact, want) <= 4e-12
-    assert rel_err(simulate(leaf, sonar, AXIS, method="fast", tol=1e-12).spectrum[0, bins],
-                   want) <= 4e-12
-    assert rel_err(simulate(leaf, sonar, AXIS, method="fast", tol=1e-9).spectrum[0, bins],
-                   want) <= 1e-9
+    assert (
+        rel_err(simulate(leaf, sonar, AXIS, method="fast", tol=1e-12).spectrum[0, bins], want)
+        <= 4e-12
+    )
+    assert (
+        rel_err(simulate(leaf, sonar, AXIS, method="fast", tol=1e-9).spectrum[0, bins], want)
+        <= 1e-9
+    )

@@ -18,7 +18,6 @@ from scipy.spatial import cKDTree
 matplotlib.use("Agg")
 
 import batecho
-from batecho.meshio import load_obj
 from batecho.trees import (
     REFERENCE_TREE,
     Tree,
@@ -27,6 +26,7 @@ from batecho.trees import (
     load_reference,
     load_tree,
 )
+from batecho.trees.objfile import load_obj
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATOR = ROOT / "tools" / "make_reference_tree.py"

@@ -1,3 +1,5 @@
+"""``python -m batecho ...``: the same as the ``batecho`` command."""
+
 import sys
 
 from .cli import main

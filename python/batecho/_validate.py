@@ -1,8 +1,9 @@
-"""Input checks shared by the public classes: clear exceptions, and copies, never views of
-the caller's arrays."""
+"""Input checks shared by the public classes and functions: clear exceptions, and copies,
+never views of the caller's arrays."""
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,7 @@ def real_array(x: Any, name: str) -> np.ndarray:
 
 
 def finite(arr: np.ndarray, name: str) -> np.ndarray:
+    """``arr`` itself; ValueError naming the first entry that is NaN or infinite."""
     bad = ~np.isfinite(arr)
     if bad.any():
         where = np.argwhere(bad)[0]
@@ -47,48 +49,67 @@ def vectors(x: Any, name: str, n: int | None = None, allow_single: bool = True) 
     return finite(arr, name)
 
 
-def norms(v: np.ndarray) -> np.ndarray:
-    """Row norms ``sqrt(x^2 + y^2 + z^2)``, summed in that order (the Rust core does the same)."""
-    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
-
-
-def dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row dot products ``ax bx + ay by + az bz`` in that order (no BLAS, no FMA)."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
-
-
-def crosses(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row cross products, component by component as in the Rust core."""
-    return np.stack(
-        [
-            a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
-            a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-            a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
-        ],
-        axis=-1,
-    )
+def point3(x: Any, name: str) -> np.ndarray:
+    """A new finite (3,) float64 vector from anything with three entries."""
+    try:
+        v = np.array(x, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a 3-vector of real numbers, got {x!r}") from None
+    if v.shape != (3,) or not np.isfinite(v).all():
+        raise ValueError(f"{name} must be a finite 3-vector, got {x!r}")
+    return v
 
 
 def readonly(arr: np.ndarray) -> np.ndarray:
+    """``arr`` itself, made read-only."""
     arr.setflags(write=False)
     return arr
 
 
-def positive_scalar(x: Any, name: str, allow_zero: bool = False) -> float:
+def frozen(a: Any, dtype: Any = np.float64) -> np.ndarray:
+    """A read-only C-contiguous array of ``dtype`` that shares no memory with ``a``."""
+    out = np.ascontiguousarray(a, dtype=dtype)
+    if out is a or out.base is not None:
+        out = out.copy()
+    out.setflags(write=False)
+    return out
+
+
+def _number(x: Any, name: str, strict: bool) -> float:
+    if strict and (isinstance(x, bool) or not isinstance(x, numbers.Real)):
+        raise TypeError(f"{name} must be a real number, got {x!r}")
     try:
-        v = float(x)
+        return float(x)
     except (TypeError, ValueError):
         raise TypeError(f"{name} must be a real number, got {x!r}") from None
+
+
+def positive_scalar(
+    x: Any, name: str, allow_zero: bool = False, *, strict: bool = False, unit: str = ""
+) -> float:
+    """``x`` as a finite float > 0 (>= 0 with ``allow_zero``). ``strict`` refuses anything
+    but a real number (bools and strings included) with TypeError; ``unit`` is named in the
+    message."""
+    v = _number(x, name, strict)
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise ValueError(f"{name} must be finite and {'>=' if allow_zero else '>'} 0, got {x!r}")
+        op = ">=" if allow_zero else ">"
+        raise ValueError(f"{name} must be finite and {op} 0{' ' + unit if unit else ''}, got {x!r}")
     return v
 
 
-def finite_scalar(x: Any, name: str) -> float:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a real number, got {x!r}") from None
+def finite_scalar(x: Any, name: str, *, strict: bool = False) -> float:
+    """``x`` as a finite float; ``strict`` as in :func:`positive_scalar`."""
+    v = _number(x, name, strict)
     if not np.isfinite(v):
         raise ValueError(f"{name} must be finite, got {x!r}")
     return v
+
+
+def integer(x: Any, name: str, minimum: int = 0, *, wrong_type: type = ValueError) -> int:
+    """``x`` as an int >= ``minimum``. A bool or a non-integer raises ``wrong_type``, a
+    smaller integer ValueError."""
+    if isinstance(x, bool) or not isinstance(x, numbers.Integral):
+        raise wrong_type(f"{name} must be an integer >= {minimum}, got {x!r}")
+    if x < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {x!r}")
+    return int(x)

@@ -14,16 +14,17 @@ identically. Everything else is vectorised NumPy.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from scipy.special import erf, j1
 
-from .absorption import iso9613_alpha_db_per_m
-from .echoes import Echoes
-from .leaves import Leaves, as_leaves
-from .poses import Poses
-from .sonar import Beam, Sonar
+from .echoes.simulate import Echoes
+from .flight.poses import Poses
+from .sonar.absorption import iso9613_alpha_db_per_m
+from .sonar.beam import Beam
+from .sonar.sonar import Sonar
+from .trees.leaves import Leaves, as_leaves
 
 _atan2 = np.frompyfunc(math.atan2, 2, 1)
 _exp = np.frompyfunc(math.exp, 1, 1)
@@ -60,7 +61,7 @@ def _one_way_gain(beam: Beam, az: np.ndarray, el: np.ndarray) -> np.ndarray:
 
 
 def _two_way_gain(sonar: Sonar, az: np.ndarray, el: np.ndarray) -> np.ndarray:
-    s_tx = _one_way_gain(sonar.beam, az, el)
+    s_tx = _one_way_gain(cast(Beam, sonar.beam), az, el)
     s_rx = s_tx if sonar.receiver is None else _one_way_gain(sonar.receiver, az, el)
     return s_tx * s_rx
 
@@ -93,11 +94,11 @@ def _counting(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
             f"leaf {j} is {r[j]:.3e} m from pose {i}, closer than min_range_m = "
             f"{sonar.min_range_m} m"
         )
-    record = sonar.sound_speed * sonar.n_samples / (2.0 * sonar.fs)
+    record = sonar.sound_speed * cast(int, sonar.n_samples) / (2.0 * sonar.fs)
     limit = record if sonar.max_range_m is None else min(float(sonar.max_range_m), record)
     mask = ~too_close & (r <= limit)
     if sonar.lobe == "cone":
-        mask &= ed >= math.cos(math.radians(sonar.cone_half_angle_deg))
+        mask &= ed >= math.cos(math.radians(cast(float, sonar.cone_half_angle_deg)))
     else:
         # r <= sqrt(r0^2 p0 G / (10^(T/20) p_ref))
         K = (
@@ -124,7 +125,7 @@ def lobe_members(
 
 # Section 5: the frequency grid -------------------------------------------------------------
 def _grid(sonar: Sonar):
-    n, fs = sonar.n_samples, sonar.fs
+    n, fs = cast(int, sonar.n_samples), sonar.fs
     df = fs / n
     k0 = math.floor(sonar.band_hz[0] / df + 0.5)  # round half up
     k1 = math.floor(sonar.band_hz[1] / df + 0.5)
@@ -217,7 +218,7 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
         ka = 2.0 * np.pi * f[0] / sonar.sound_speed * a_all
         if ka.min() < sonar.min_ka:
             raise ValueError(f"leaf {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
-    n = sonar.n_samples
+    n = cast(int, sonar.n_samples)
     spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
     impulses = np.zeros((len(poses), n))
     counts = np.zeros(len(poses), dtype=np.int64)

@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from ..echoes import Echoes, lobe_members, simulate
-from ..poses import Poses
-from ..sonar import Sonar
+from ..echoes.simulate import Echoes, lobe_members, simulate
+from ..flight.poses import Poses
+from ..sonar.sonar import Sonar
 from .scenes import BuiltScene, build_scene, scene_label_names
 from .spec import DatasetSpec
 from .store import StoreLike, _is_url, _zarr, open_for_generate, schema, write_chunk
@@ -116,7 +116,7 @@ def draw_poses(
     spec: DatasetSpec, built: BuiltScene, rng: np.random.Generator
 ) -> tuple[Poses, dict[str, float]]:
     """The sample's ``pulses_per_sample`` poses and the pose parameters drawn."""
-    from .. import trajectories
+    from ..flight import kinematic as trajectories
 
     ps, p = spec.poses, spec.pulses_per_sample
     if ps.mode == "random":

@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from ..leaves import Leaves
-from ..scene import Scene
+from .._optional import forest_available, forest_modules
+from ..forest.scene import Scene
+from ..trees.leaves import Leaves
 from .spec import DatasetSpec, Dist
 
-__all__ = ["SCENE_KINDS", "BuiltScene", "SceneKind", "draw_leaf_shapes"]
+__all__ = ["SCENE_KINDS", "BuiltScene", "SceneKind", "draw_leaf_shapes", "forest_available"]
 
 
 @dataclass(frozen=True)
@@ -115,26 +116,17 @@ def _leaf_box_labels(spec: DatasetSpec) -> tuple[str, ...]:
 
 def _import_forest() -> Any:
     try:
-        from ..forest import Forest
-    except ImportError as exc:
+        _, forest = forest_modules()
+    except RuntimeError as exc:
         raise RuntimeError(
             'scene.kind = "forest" needs batecho.forest.Forest, which this installation of '
             f'batecho does not have ({exc}); use scene.kind = "leaf_box"'
         ) from None
-    return Forest
-
-
-def forest_available() -> bool:
-    """Whether ``scene.kind = "forest"`` can run here (``batecho.forest`` imports)."""
-    try:
-        _import_forest()
-    except RuntimeError:
-        return False
-    return True
+    return forest.Forest
 
 
 def _forest_intensity(spec: DatasetSpec, scale: float) -> Any:
-    from ..ipp import SquaredExponentialMixture, paper_intensity
+    from ..forest.ipp import SquaredExponentialMixture, paper_intensity
 
     if spec.scene.forest.intensity == "homogeneous":
         return lambda x, y: np.full(np.broadcast(x, y).shape, scale)

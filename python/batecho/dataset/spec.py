@@ -28,6 +28,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..echoes.canonical import CANONICAL_BOX
+from ..forest.ipp import PAPER_WINDOW
+
 __all__ = [
     "DatasetSpec",
     "Dist",
@@ -246,11 +249,13 @@ def _coerce(value: Any, name: str, meta: Mapping[str, Any]) -> Any:
             raise SpecError(f"{name} must be a table, got {value!r}")
         out_params: dict[str, Any] = {}
         for k in sorted(value):
-            v = value[k]
-            dist_table = isinstance(v, Mapping) and len(v) == 1 and next(iter(v)) in _DIST_KINDS
-            if isinstance(v, Dist) or dist_table:
-                v = Dist.parse(v, f"{name}.{k}")
-            out_params[str(k)] = v
+            item = value[k]
+            dist_table = (
+                isinstance(item, Mapping) and len(item) == 1 and next(iter(item)) in _DIST_KINDS
+            )
+            if isinstance(item, Dist) or dist_table:
+                item = Dist.parse(item, f"{name}.{k}")
+            out_params[str(k)] = item
         return out_params
     if kind == "section":
         cls = meta["cls"]
@@ -313,9 +318,6 @@ class _Section:
 
 
 # ----------------------------------------------------------------------------- sections
-
-CANONICAL_BOX = ((1.0, 10.0), (-2.0, 2.0), (-2.0, 2.0))
-PAPER_WINDOW = (0.0, 20.0, 0.0, 20.0)
 
 
 @dataclass(frozen=True)
@@ -475,7 +477,7 @@ class SonarSpec(_Section):
 
     def make(self, beamwidth_deg: float):
         """A ``batecho.Sonar`` with this grid and ``beamwidth_deg``."""
-        from ..sonar import Sonar
+        from ..sonar.sonar import Sonar
 
         return Sonar(
             beamwidth_deg=beamwidth_deg,

@@ -168,7 +168,7 @@ def coordinates(spec: DatasetSpec) -> dict[str, tuple[tuple[str, ...], np.ndarra
     sonar = spec.sonar.make(spec.sonar.beamwidth_deg.low)
     t0, t1 = spec.sonar.time_slice()
     times = sonar.times[t0:t1]
-    out = {
+    out: dict[str, tuple[tuple[str, ...], np.ndarray, str, str]] = {
         "sample": (("sample",), np.arange(spec.n_samples, dtype=np.int64), "1", "sample index"),
         "pulse": (
             ("pulse",),
@@ -327,7 +327,7 @@ def _consolidate(store: StoreLike) -> None:
 
 def _create(store: StoreLike, spec: DatasetSpec, overwrite: bool = False) -> Any:
     zarr = _zarr()
-    from .. import __version__
+    from .._core import __version__
 
     g = zarr.open_group(str(store), mode="w" if overwrite else "w-", zarr_format=3)
     for name, (dims, values, units, desc) in coordinates(spec).items():

@@ -1,0 +1,154 @@
+"""Sonar poses: pulse positions with an orthonormal frame (forward, up, left = up x forward)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._geometry import crosses, dots, norms
+from .._validate import readonly, vectors
+
+
+class Poses:
+    """``p`` sonar poses.
+
+    Parameters
+    ----------
+    positions : array_like, shape (p, 3) or (3,)
+        Pulse positions in metres.
+    forward : array_like, shape (p, 3) or (3,)
+        Beam axis directions (any non-zero length).
+    up : array_like, shape (p, 3) or (3,), default (0, 0, 1)
+        Up hint, re-orthogonalised against ``forward``; must not be parallel to it.
+
+    Azimuth is positive toward ``left = up x forward`` and elevation positive toward ``up``.
+    """
+
+    __slots__ = ("_forward", "_left", "_positions", "_up")
+
+    def __init__(self, positions: Any, forward: Any, up: Any = (0.0, 0.0, 1.0)):
+        pos = vectors(positions, "positions")
+        p = pos.shape[0]
+        if p == 0:
+            raise ValueError("Poses needs at least one pose; got empty arrays")
+        f = vectors(forward, "forward", p)
+        u = vectors(up, "up", p)
+        nf = norms(f)
+        bad = ~(nf > 0) | ~np.isfinite(nf)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(f"pose {i}: forward vector {f[i]} has zero length")
+        d = f / nf[:, None]
+        ud = dots(u, d)
+        uo = u - ud[:, None] * d
+        nu = norms(uo)
+        bad = ~(nu > 1e-9 * norms(u))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"pose {i}: up vector {u[i]} is parallel to forward {f[i]} (or zero); "
+                "pass an up vector that is not along the beam axis"
+            )
+        uu = uo / nu[:, None]
+        self._positions = readonly(pos)
+        self._forward = readonly(np.ascontiguousarray(d))
+        self._up = readonly(np.ascontiguousarray(uu))
+        self._left = readonly(np.ascontiguousarray(crosses(uu, d)))
+
+    @classmethod
+    def _from_frames(
+        cls, positions: np.ndarray, forward: np.ndarray, up: np.ndarray, left: np.ndarray
+    ) -> Poses:
+        obj = cls.__new__(cls)
+        obj._positions = readonly(np.ascontiguousarray(positions, dtype=np.float64))
+        obj._forward = readonly(np.ascontiguousarray(forward, dtype=np.float64))
+        obj._up = readonly(np.ascontiguousarray(up, dtype=np.float64))
+        obj._left = readonly(np.ascontiguousarray(left, dtype=np.float64))
+        return obj
+
+    @classmethod
+    def from_rotations(cls, positions: Any, rotations: Any) -> Poses:
+        """Poses from body rotation matrices (p, 3, 3) whose columns are (forward, left, up)."""
+        pos = vectors(positions, "positions")
+        R = np.asarray(rotations, dtype=np.float64)
+        if R.ndim == 2:
+            R = R[None]
+        if R.shape != (pos.shape[0], 3, 3):
+            raise ValueError(f"rotations must have shape ({pos.shape[0]}, 3, 3), got {R.shape}")
+        return cls(pos, R[:, :, 0], R[:, :, 2])
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(p, 3) positions, m."""
+        return self._positions
+
+    @property
+    def forward(self) -> np.ndarray:
+        """(p, 3) unit beam axes."""
+        return self._forward
+
+    @property
+    def up(self) -> np.ndarray:
+        """(p, 3) unit up vectors, orthogonal to forward."""
+        return self._up
+
+    @property
+    def left(self) -> np.ndarray:
+        """(p, 3) unit left vectors, ``up x forward``."""
+        return self._left
+
+    @property
+    def rotations(self) -> np.ndarray:
+        """(p, 3, 3) rotation matrices with columns (forward, left, up)."""
+        return np.stack([self._forward, self._left, self._up], axis=-1)
+
+    def __len__(self) -> int:
+        return self._positions.shape[0]
+
+    def __getitem__(self, index: Any) -> Poses:
+        idx = np.atleast_1d(np.arange(len(self))[index])
+        if idx.size == 0:
+            raise ValueError("selection is empty; Poses needs at least one pose")
+        return Poses._from_frames(
+            self._positions[idx], self._forward[idx], self._up[idx], self._left[idx]
+        )
+
+    def __iter__(self):
+        for i in range(len(self)):
+            yield self[i]
+
+    def __repr__(self) -> str:
+        return f"Poses(p={len(self)})"
+
+    @staticmethod
+    def concatenate(parts: list[Poses]) -> Poses:
+        if not parts:
+            raise ValueError("concatenate needs at least one Poses")
+        return Poses._from_frames(
+            *(
+                np.concatenate([getattr(p, a) for p in parts])
+                for a in ("positions", "forward", "up", "left")
+            )
+        )
+
+    def transformed(self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0)) -> Poses:
+        """Poses moved rigidly: ``x -> R x + t``; the frames rotate with them."""
+        R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
+        t = vectors(translation, "translation")[0]
+        return Poses(self._positions @ R.T + t, self._forward @ R.T, self._up @ R.T)
+
+
+def look_at(positions: Any, targets: Any, up: Any = (0.0, 0.0, 1.0)) -> Poses:
+    """Poses at ``positions`` whose beam axes point at ``targets`` (each (p, 3) or (3,))."""
+    pos = vectors(positions, "positions")
+    tgt = vectors(targets, "targets", pos.shape[0])
+    fwd = tgt - pos
+    zero = ~(norms(fwd) > 0)
+    if zero.any():
+        i = int(np.argmax(zero))
+        raise ValueError(f"pose {i}: target {tgt[i]} coincides with the position")
+    return Poses(pos, fwd, up)
+
+
+__all__ = ["Poses", "look_at"]

@@ -1,0 +1,420 @@
+"""Timed reference trajectories: :class:`Circle`, :class:`Line`, :class:`FigureEight`,
+:class:`Waypoints` and :class:`Hover` give position and its derivatives up to snap and a yaw
+reference; :meth:`batecho.flight.vehicle.Quadrotor.fly` tracks them.
+
+World frame: right-handed, z up, metres, seconds; yaw ``psi`` is the angle of the horizontal
+heading from +x toward +y (radians inside, degrees only in names ending ``_deg``). Heading
+modes (shared by all): ``"velocity"`` points the beam along the horizontal direction of
+travel; ``"center"`` / ``"look_at"`` at a point (``target``; the circle's centre at flight
+altitude by default); ``"fixed"`` at a constant yaw ``yaw_deg``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .._validate import finite, finite_scalar, positive_scalar, real_array, vectors
+from ._paths import TINY, center_xy, gerono, heading_mode, point
+from .poses import Poses
+
+__all__ = ["Circle", "FigureEight", "Hover", "Line", "Trajectory", "Waypoints"]
+
+
+def _planar_yaw(
+    d: np.ndarray, dd: np.ndarray, ddd: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Yaw of the horizontal part of a vector function and its first two time derivatives."""
+    dx, dy = d[:, 0], d[:, 1]
+    D = dx * dx + dy * dy
+    N = dx * dd[:, 1] - dy * dd[:, 0]
+    Nd = dx * ddd[:, 1] - dy * ddd[:, 0]
+    Dd = 2.0 * (dx * dd[:, 0] + dy * dd[:, 1])
+    ok = D > TINY
+    Ds = np.where(ok, D, 1.0)
+    rate = np.where(ok, N / Ds, 0.0)
+    acc = np.where(ok, (Nd * Ds - N * Dd) / (Ds * Ds), 0.0)
+    return np.arctan2(dy, dx), rate, acc
+
+
+class Trajectory:
+    """A timed reference: position (m), its derivatives, and a yaw (rad) for the heading mode.
+
+    Subclasses implement ``_derivative(t, order)`` for orders 0 (position) to 4 (snap),
+    returning (n, 3) arrays in the world frame for a 1-D array of times ``t`` (s). Public
+    methods take a scalar (-> (3,)) or an array of times (-> (len(t), 3)).
+    """
+
+    heading: str = "velocity"
+    target: np.ndarray | None = None
+    _yaw: float | None = None
+    duration: float = math.inf
+
+    def _set_heading(
+        self, heading: str, target: Any, yaw_deg: Any, default_target: np.ndarray | None
+    ) -> None:
+        self.heading, self.target, self._yaw = heading_mode(
+            heading, target, yaw_deg, default_target
+        )
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def _eval(self, t: Any, order: int) -> np.ndarray:
+        arr = finite(real_array(t, "t"), "t")
+        out = self._derivative(np.atleast_1d(arr).ravel(), order)
+        return out[0] if arr.ndim == 0 else out.reshape(arr.shape + (3,))
+
+    def position(self, t: Any) -> np.ndarray:
+        """Position (m) at time(s) ``t`` (s)."""
+        return self._eval(t, 0)
+
+    def velocity(self, t: Any) -> np.ndarray:
+        """Velocity (m/s)."""
+        return self._eval(t, 1)
+
+    def acceleration(self, t: Any) -> np.ndarray:
+        """Acceleration (m/s^2)."""
+        return self._eval(t, 2)
+
+    def jerk(self, t: Any) -> np.ndarray:
+        """Jerk (m/s^3)."""
+        return self._eval(t, 3)
+
+    def snap(self, t: Any) -> np.ndarray:
+        """Snap (m/s^4)."""
+        return self._eval(t, 4)
+
+    def _travel_direction(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(d, d', d'') whose horizontal part gives the velocity heading; where the vehicle is
+        at rest the first non-vanishing higher derivative gives the direction."""
+        v, a, j, s = (self._derivative(t, k) for k in (1, 2, 3, 4))
+        d, dd, ddd = v.copy(), a.copy(), j.copy()
+        for cand in (a, j, s):
+            still = np.hypot(d[:, 0], d[:, 1]) <= 1e-9
+            if not still.any():
+                break
+            d[still] = cand[still]
+            dd[still] = 0.0
+            ddd[still] = 0.0
+        return d, dd, ddd
+
+    def yaw_derivatives(self, t: Any) -> tuple[Any, Any, Any]:
+        """(yaw rad in (-pi, pi], yaw rate rad/s, yaw acceleration rad/s^2) at ``t``."""
+        arr = finite(real_array(t, "t"), "t")
+        tt = np.atleast_1d(arr).ravel()
+        if self.heading == "fixed":
+            out = (np.full(tt.shape, self._yaw), np.zeros(tt.shape), np.zeros(tt.shape))
+        elif self.heading == "look_at":
+            p, v, a = (self._derivative(tt, k) for k in (0, 1, 2))
+            assert self.target is not None  # set with heading "look_at"
+            out = _planar_yaw(self.target[None, :] - p, -v, -a)
+        else:
+            out = _planar_yaw(*self._travel_direction(tt))
+        yaw, rate, acc = out
+        if arr.ndim == 0:
+            return float(yaw[0]), float(rate[0]), float(acc[0])
+        return yaw.reshape(arr.shape), rate.reshape(arr.shape), acc.reshape(arr.shape)
+
+    def yaw(self, t: Any) -> Any:
+        """Yaw reference (rad, from +x toward +y) following the heading mode."""
+        return self.yaw_derivatives(t)[0]
+
+    def times(self, rate_hz: float, duration: float | None = None) -> np.ndarray:
+        """Times 0, 1/rate_hz, ... up to ``duration`` (s; default ``self.duration``)."""
+        rate = positive_scalar(rate_hz, "rate_hz")
+        dur = self.duration if duration is None else positive_scalar(duration, "duration")
+        if not math.isfinite(dur):
+            raise ValueError("this trajectory has no finite duration; pass duration=")
+        return np.arange(math.floor(dur * rate + 1e-9) + 1) / rate
+
+    def poses(self, t: Any, mount: Any = None) -> Poses:
+        """Kinematic sonar poses at times ``t``: the body level (yaw from the heading mode,
+        up = +z) and the sonar ``mount`` (a :class:`batecho.flight.mount.SonarMount`) applied.
+        The attitude a real vehicle needs to fly the path is ignored (compare
+        :meth:`batecho.flight.record.Flight.poses`)."""
+        tt = np.atleast_1d(finite(real_array(t, "t"), "t")).ravel()
+        yaw = np.atleast_1d(self.yaw(tt))
+        R = np.zeros((len(tt), 3, 3))
+        R[:, 0, 0] = R[:, 1, 1] = np.cos(yaw)
+        R[:, 1, 0] = np.sin(yaw)
+        R[:, 0, 1] = -np.sin(yaw)
+        R[:, 2, 2] = 1.0
+        pos = self._derivative(tt, 0)
+        if mount is None:
+            return Poses.from_rotations(pos, R)
+        return mount.pose(pos, R)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(duration={self.duration:.6g} s, heading={self.heading!r})"
+
+
+class Hover(Trajectory):
+    """Hold ``position`` (m) at a fixed yaw ``yaw_deg`` for ever."""
+
+    def __init__(self, position: Any = (0.0, 0.0, 1.0), yaw_deg: float = 0.0):
+        self.point = point(position, "position")
+        self._set_heading("fixed", None, yaw_deg, None)
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
+        out = np.zeros((len(t), 3))
+        if order == 0:
+            out[:] = self.point
+        return out
+
+
+class Circle(Trajectory):
+    """Constant-speed horizontal circle, analytic to all orders.
+
+    ``p(t) = c + r (cos th, sin th, 0) + (0, 0, altitude)`` with ``th = th0 + w t`` and
+    ``w = speed / radius`` (negative if ``clockwise``). It starts at full speed at t = 0 and
+    repeats; ``duration`` is one lap (s). Centripetal acceleration ``speed^2 / radius``.
+    """
+
+    def __init__(
+        self,
+        center: Any,
+        radius: float = 6.2,
+        altitude: float = 5.0,
+        speed: float = 2.0,
+        *,
+        start_angle_deg: float = 0.0,
+        clockwise: bool = False,
+        heading: str = "velocity",
+        target: Any = None,
+        yaw_deg: float | None = None,
+    ):
+        self.center = center_xy(center)
+        self.radius = positive_scalar(radius, "radius")
+        self.altitude = finite_scalar(altitude, "altitude")
+        self.speed = positive_scalar(speed, "speed")
+        self.theta0 = math.radians(finite_scalar(start_angle_deg, "start_angle_deg"))
+        self.omega = (-1.0 if clockwise else 1.0) * self.speed / self.radius
+        self.duration = 2.0 * math.pi / abs(self.omega)
+        self._set_heading(heading, target, yaw_deg, np.array([*self.center, self.altitude]))
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
+        th = self.theta0 + self.omega * t + order * np.pi / 2
+        k = self.radius * self.omega**order
+        out = np.stack([k * np.cos(th), k * np.sin(th), np.zeros_like(th)], axis=-1)
+        if order == 0:
+            out += np.array([*self.center, self.altitude])
+        return out
+
+
+class FigureEight(Trajectory):
+    """Horizontal figure eight (lemniscate of Gerono) flown at a constant angular rate.
+
+    ``x = cx + 2 r sin(w t + th0)``, ``y = cy + r sin(2 (w t + th0))``, ``z = altitude``; each
+    lobe spans ``2r x 2r``. Give ``period`` (s per eight) or ``speed`` (mean speed, m/s; the
+    period is then the curve length over ``speed``; default 2 m/s). The speed varies along the
+    path, between about 0.7 and 1.4 times ``2 r w``.
+    """
+
+    def __init__(
+        self,
+        center: Any,
+        radius: float = 3.1,
+        altitude: float = 5.0,
+        speed: float | None = None,
+        period: float | None = None,
+        *,
+        start_angle_deg: float = 0.0,
+        heading: str = "velocity",
+        target: Any = None,
+        yaw_deg: float | None = None,
+    ):
+        self.center = center_xy(center)
+        self.radius = positive_scalar(radius, "radius")
+        self.altitude = finite_scalar(altitude, "altitude")
+        self.theta0 = math.radians(finite_scalar(start_angle_deg, "start_angle_deg"))
+        if speed is not None and period is not None:
+            raise ValueError("give speed or period, not both")
+        from scipy.integrate import quad
+
+        length = (
+            self.radius
+            * quad(
+                lambda th: 2.0 * math.hypot(math.cos(th), math.cos(2 * th)),
+                0.0,
+                2.0 * math.pi,
+                limit=200,
+            )[0]
+        )
+        self.length = length
+        if period is None:
+            period = length / positive_scalar(2.0 if speed is None else speed, "speed")
+        self.duration = positive_scalar(period, "period")
+        self.speed = length / self.duration
+        self.omega = 2.0 * math.pi / self.duration
+        self._set_heading(heading, target, yaw_deg, np.array([*self.center, self.altitude]))
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
+        th = self.theta0 + self.omega * t
+        return gerono(th, self.center, self.radius, self.altitude, order) * (self.omega**order)
+
+
+def _ramp(u: np.ndarray, order: int) -> np.ndarray:
+    """Integral (order 0) and derivatives of the quintic smoothstep speed profile
+    ``sigma(u) = 10u^3 - 15u^4 + 6u^5`` (order 1 is sigma itself)."""
+    if order == 0:
+        return u**4 * (2.5 - 3.0 * u + u * u)
+    if order == 1:
+        return u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
+    if order == 2:
+        return 30.0 * u * u * (1.0 - u) ** 2
+    if order == 3:
+        return 60.0 * u - 180.0 * u * u + 120.0 * u**3
+    return 60.0 - 360.0 * u + 360.0 * u * u
+
+
+class Line(Trajectory):
+    """Straight flight from ``start`` to ``end`` (m) at cruise ``speed`` (m/s), rest to rest.
+
+    The speed rises from 0 to ``speed`` over ``ramp_time`` s along a quintic smoothstep
+    (``v = speed (10u^3 - 15u^4 + 6u^5)``, ``u = t / ramp_time``) and falls symmetrically at
+    the end, so velocity, acceleration and jerk are continuous and the peak acceleration is
+    ``1.875 speed / ramp_time`` (snap jumps at the ramp ends but stays finite). The default
+    ramp gives a 1 m/s^2 peak. ``ramp_time=0`` flies at constant speed throughout (velocity
+    steps at both ends, acceleration zero). If the line is too short to reach ``speed`` the
+    cruise speed is lowered to ``length / ramp_time``. Before t = 0 and after ``duration``
+    the position holds at the ends.
+    """
+
+    def __init__(
+        self,
+        start: Any,
+        end: Any,
+        speed: float = 1.0,
+        *,
+        ramp_time: float | None = None,
+        heading: str = "velocity",
+        target: Any = None,
+        yaw_deg: float | None = None,
+    ):
+        self.start = point(start, "start")
+        self.end = point(end, "end")
+        self.speed = positive_scalar(speed, "speed")
+        self.length = float(np.linalg.norm(self.end - self.start))
+        if not self.length > 0:
+            raise ValueError("start and end coincide; use Hover for a stationary reference")
+        self.direction = (self.end - self.start) / self.length
+        tr = (
+            1.875 * self.speed / 1.0
+            if ramp_time is None
+            else positive_scalar(ramp_time, "ramp_time", allow_zero=True)
+        )
+        if self.speed * tr > self.length:
+            self.speed = self.length / tr
+        self.ramp_time = tr
+        self.cruise_time = (self.length - self.speed * tr) / self.speed
+        self.duration = 2.0 * tr + self.cruise_time
+        self._set_heading(heading, target, yaw_deg, self.end)
+        if self.heading == "velocity" and math.hypot(*self.direction[:2]) <= TINY:
+            raise ValueError(
+                "a vertical Line has no horizontal direction of travel; use "
+                "heading='fixed' or 'look_at'"
+            )
+
+    def _s(self, t: np.ndarray, order: int) -> np.ndarray:
+        v, tr, T, L = self.speed, self.ramp_time, self.duration, self.length
+        if tr == 0.0:
+            inside = (t >= 0.0) & (t <= T)
+            if order == 0:
+                return np.clip(v * t, 0.0, L)
+            return np.where(inside, v, 0.0) if order == 1 else np.zeros_like(t)
+        s = np.zeros_like(t)
+        a = (t >= 0.0) & (t < tr)
+        b = (t >= tr) & (t <= tr + self.cruise_time)
+        c = (t > tr + self.cruise_time) & (t <= T)
+        scale = v * tr ** (1 - order)
+        s[a] = scale * _ramp(t[a] / tr, order)
+        s[c] = (-1.0) ** (order + 1) * scale * _ramp((T - t[c]) / tr, order)
+        if order == 0:
+            s[b] = 0.5 * v * tr + v * (t[b] - tr)
+            s[c] += L
+            s[t > T] = L
+        elif order == 1:
+            s[b] = v
+        return s
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
+        out = self._s(t, order)[:, None] * self.direction[None, :]
+        if order == 0:
+            out += self.start
+        return out
+
+    def _travel_direction(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d = np.repeat(self.direction[None, :], len(t), axis=0)
+        return d, np.zeros_like(d), np.zeros_like(d)
+
+
+class Waypoints(Trajectory):
+    """A smooth path through ``points`` (k, 3) m: a quintic B-spline in time.
+
+    Knot times start from the chord lengths (a centripetal-free, arc-length-like
+    parameterisation), with the first and last segments given double time; the spline
+    (``scipy.interpolate.make_interp_spline``, k = 5) starts and ends at rest (velocity and
+    acceleration zero) unless ``closed``, in which case the path returns to the first point
+    and is periodic. The time axis is then scaled so that the fastest point of the path moves
+    at ``speed`` m/s. Position is C4, so snap is continuous. Outside ``[0, duration]`` an open
+    path holds its end points; a closed one repeats.
+    """
+
+    def __init__(
+        self,
+        points: Any,
+        speed: float = 2.0,
+        *,
+        closed: bool = False,
+        heading: str = "velocity",
+        target: Any = None,
+        yaw_deg: float | None = None,
+    ):
+        pts = vectors(points, "points", allow_single=False)
+        if len(pts) < 2:
+            raise ValueError(f"Waypoints needs at least 2 points, got {len(pts)}")
+        self.speed = positive_scalar(speed, "speed")
+        self.closed = bool(closed)
+        if self.closed:
+            if len(pts) < 3:
+                raise ValueError("a closed Waypoints path needs at least 3 points")
+            if not np.allclose(pts[0], pts[-1]):
+                pts = np.vstack([pts, pts[:1]])
+        chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        if not (chords > 0).all():
+            i = int(np.argmax(~(chords > 0)))
+            raise ValueError(f"waypoints {i} and {i + 1} coincide")
+        self.points = pts
+        seg = chords.copy()
+        if not self.closed:
+            seg[0] *= 2.0
+            seg[-1] *= 2.0
+        u = np.concatenate([[0.0], np.cumsum(seg)])
+        from scipy.interpolate import make_interp_spline
+
+        if self.closed:
+            bc: Any = "periodic"
+        else:
+            z = np.zeros(3)
+            bc = ([(1, z), (2, z)], [(1, z), (2, z)])
+        spl = make_interp_spline(u, pts, k=5, bc_type=bc)
+        uu = np.linspace(0.0, u[-1], 200 * len(pts) + 1)
+        vmax = float(np.linalg.norm(spl(uu, 1), axis=1).max())
+        scale = vmax / self.speed  # seconds per unit of u
+        self.knot_times = u * scale
+        self.duration = float(self.knot_times[-1])
+        self._spline = make_interp_spline(self.knot_times, pts, k=5, bc_type=bc)
+        self._set_heading(heading, target, yaw_deg, None)
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
+        T = self.duration
+        if self.closed:
+            return self._spline(np.mod(t, T), order)
+        tc = np.clip(t, 0.0, T)
+        out = self._spline(tc, order)
+        if order > 0:
+            out[(t < 0.0) | (t > T)] = 0.0
+        return out

@@ -1,0 +1,525 @@
+"""Matplotlib figures of scenes and echoes. Every function returns the Figure; nothing is shown.
+
+Matplotlib runs with the Agg backend unless another one was chosen already. Units on the axes:
+metres for positions and ranges, milliseconds for time, kHz for frequency, dB re the largest
+value for magnitudes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "lobe_surface",
+    "plot_echo_image",
+    "plot_impulse",
+    "plot_impulses",
+    "plot_scene_3d",
+    "plot_spectrogram",
+    "plot_spectrum",
+]
+
+#: Colours of the scene plots.
+LEAF_COLOR = "#3a7d2c"
+MEMBER_COLOR = "#d62728"
+BARK_COLOR = "#6b4a2f"
+PATH_COLOR = "#1f4e9e"
+LOBE_COLORS = ("#ff7f0e", "#9467bd", "#17becf", "#e377c2", "#bcbd22", "#8c564b")
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _db(x: np.ndarray, ref: float, power: bool = False) -> np.ndarray:
+    """``20 log10(x / ref)`` (or ``10 log10`` for powers); -inf where x = 0, all -inf if ref = 0."""
+    if not ref > 0:
+        return np.full(np.shape(x), -np.inf)
+    with np.errstate(divide="ignore"):
+        return (10.0 if power else 20.0) * np.log10(np.asarray(x) / ref)
+
+
+# ------------------------------------------------------------------------------- echoes
+
+
+def plot_impulse(
+    echoes,
+    index: int = 0,
+    ax=None,
+    envelope: bool = True,
+    title: str | None = None,
+    max_range_m: float | None = None,
+):
+    """Impulse response of pose ``index``: time axis in ms, range (m) on a secondary axis.
+
+    ``max_range_m`` cuts the time axis at that range. A pose whose lobe holds no leaf has an
+    impulse response that is exactly zero; the title says so.
+    """
+    plt = _plt()
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(8, 3.2), constrained_layout=True)
+    t_ms = echoes.times * 1e3
+    y = echoes.impulse[index]
+    v = echoes.sonar.sound_speed
+    keep = slice(None)
+    if max_range_m is not None:
+        keep = echoes.ranges <= max_range_m
+    ax.plot(t_ms[keep], y[keep], lw=0.6, color="tab:blue", label="impulse response")
+    if envelope:
+        from scipy.signal import hilbert
+
+        ax.plot(
+            t_ms[keep],
+            np.abs(hilbert(y))[keep],
+            lw=0.8,
+            color="tab:orange",
+            label="envelope",
+        )
+    ax.set_xlabel("time (ms)")
+    ax.set_ylabel("amplitude")
+    sec = ax.secondary_xaxis(
+        "top", functions=(lambda t: v * t * 1e-3 / 2, lambda r: 2 * r / v * 1e3)
+    )
+    sec.set_xlabel("range (m)")
+    n = int(echoes.n_leaves[index])
+    if title is None:
+        title = (
+            f"pose {index}: no leaf in the main lobe, the echo is exactly zero"
+            if n == 0 and not np.any(y)
+            else f"pose {index}: {n} leaves in the main lobe"
+        )
+    ax.set_title(title, fontsize=10)
+    ax.legend(loc="upper right", fontsize=8)
+    return fig or ax.figure
+
+
+def plot_spectrum(echoes, index: int = 0, ax=None):
+    """Magnitude (dB) of the band spectrum of pose ``index``, frequency in kHz."""
+    plt = _plt()
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6, 3), constrained_layout=True)
+    mag = np.abs(echoes.spectrum[index])
+    db = _db(mag, float(mag.max()))
+    ax.plot(echoes.freqs / 1e3, db, lw=0.8)
+    ax.set_xlabel("frequency (kHz)")
+    ax.set_ylabel("|Y| (dB re max)")
+    finite = db[np.isfinite(db)]
+    ax.set_ylim(max(-80.0, float(finite.min())) if finite.size else -80.0, 3)
+    if not finite.size:
+        ax.set_title(f"pose {index}: no echo (spectrum exactly zero)", fontsize=10)
+    return fig or ax.figure
+
+
+def plot_impulses(
+    echoes,
+    indices: Sequence[int] | np.ndarray,
+    ncols: int = 2,
+    titles: Sequence[str] | None = None,
+    max_range_m: float | None = None,
+    sharey: bool = False,
+):
+    """A grid of impulse responses, one panel per pose in ``indices`` (``titles`` per panel)."""
+    plt = _plt()
+    indices = [int(i) for i in indices]
+    if not indices:
+        raise ValueError("plot_impulses needs at least one pose index")
+    ncols = max(1, min(int(ncols), len(indices)))
+    nrows = math.ceil(len(indices) / ncols)
+    fig, axes = plt.subplots(
+        nrows,
+        ncols,
+        figsize=(5 * ncols, 2.8 * nrows),
+        squeeze=False,
+        constrained_layout=True,
+        sharey=sharey,
+    )
+    for k, (ax, i) in enumerate(zip(axes.ravel(), indices, strict=False)):
+        plot_impulse(
+            echoes, i, ax=ax, title=None if titles is None else titles[k], max_range_m=max_range_m
+        )
+    for ax in axes.ravel()[len(indices) :]:
+        ax.set_visible(False)
+    return fig
+
+
+def _edges(x: np.ndarray) -> np.ndarray:
+    """Cell edges around sorted centres ``x`` (midpoints, half a step beyond the ends)."""
+    if len(x) == 1:
+        return np.array([x[0] - 0.5, x[0] + 0.5])
+    mid = 0.5 * (x[1:] + x[:-1])
+    return np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
+
+
+def plot_echo_image(
+    echoes,
+    ax=None,
+    max_range_m: float | None = None,
+    dynamic_range_db: float = 60.0,
+    x: Any = None,
+    xlabel: str | None = None,
+    title: str | None = None,
+):
+    """Echo "image" along a flight: envelope in dB re the largest, pulses (x) by range (y).
+
+    ``x`` gives the pulses' coordinates (e.g. pulse times in s, the angle on a circle in deg or
+    the distance to a target in m; monotonic) with ``xlabel``; by default the pulse index.
+    Pulses with no leaf in the lobe show as empty (exactly zero) columns.
+    """
+    plt = _plt()
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
+    env = echoes.envelope()
+    db = _db(env, float(env.max()))
+    rng = echoes.ranges
+    rmax = rng[-1] if max_range_m is None else float(max_range_m)
+    keep = rng <= rmax
+    p = len(echoes)
+    xs = np.arange(p, dtype=np.float64) if x is None else np.asarray(x, dtype=np.float64)
+    if xs.shape != (p,):
+        raise ValueError(f"x must have one value per pulse ({p}), got shape {xs.shape}")
+    order = np.argsort(xs, kind="stable")
+    if p > 1 and not np.all(np.diff(xs[order]) > 0):
+        raise ValueError("x must have distinct values")
+    r_edges = _edges(rng[keep])
+    r_edges[0] = max(r_edges[0], 0.0)
+    img = np.where(np.isfinite(db), db, -np.inf)[order][:, keep].T
+    im = ax.pcolormesh(
+        _edges(xs[order]),
+        r_edges,
+        np.ma.masked_invalid(np.maximum(img, -dynamic_range_db - 1.0)),
+        vmin=-dynamic_range_db,
+        vmax=0,
+        cmap="magma",
+        shading="flat",
+        rasterized=True,
+    )
+    ax.set_facecolor("black")
+    ax.set_xlabel(xlabel or ("pulse" if x is None else "x"))
+    ax.set_ylabel("range (m)")
+    ax.set_ylim(0, rng[keep][-1])
+    if title:
+        ax.set_title(title, fontsize=10)
+    (fig or ax.figure).colorbar(im, ax=ax, label="envelope (dB re max)")
+    return fig or ax.figure
+
+
+def plot_spectrogram(echoes, index: int = 0, ax=None, nperseg: int = 256):
+    """Spectrogram of the impulse response of pose ``index`` (scipy.signal.spectrogram)."""
+    from scipy.signal import spectrogram
+
+    plt = _plt()
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(7, 3.5), constrained_layout=True)
+    f, t, S = spectrogram(
+        echoes.impulse[index], fs=echoes.sonar.fs, nperseg=nperseg, noverlap=nperseg * 3 // 4
+    )
+    db = _db(S, float(S.max()), power=True)
+    db = np.where(np.isfinite(db), db, -120.0)
+    im = ax.pcolormesh(t * 1e3, f / 1e3, db, vmin=-60, vmax=0, shading="auto", cmap="magma")
+    ax.set_xlabel("time (ms)")
+    ax.set_ylabel("frequency (kHz)")
+    (fig or ax.figure).colorbar(im, ax=ax, label="dB re max")
+    return fig or ax.figure
+
+
+# -------------------------------------------------------------------------------- scenes
+
+
+def _orthonormal_pair(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors orthogonal to the unit vector ``a`` and to each other."""
+    h = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    b1 = np.cross(h, a)
+    b1 /= np.linalg.norm(b1)
+    return b1, np.cross(a, b1)
+
+
+def lobe_surface(sonar, pose, n_alpha: int = 36, n_phi: int = 48):
+    """The boundary of the region where a leaf counts for one pose, as a closed surface.
+
+    Returns ``(X, Y, Z)``, each (n_alpha + 1, n_phi + 1), world coordinates (m), for
+    ``Axes3D.plot_surface``. With ``lobe="detectable"`` the boundary is
+    ``r(az, el) = sqrt(r0^2 p0 G(az, el) / (10^(T/20) p_ref))`` (MODEL.md section 3, two-way gain
+    ``G``), capped at ``sonar.range_limit_m``; rows run over the angle from the beam centre out
+    to 3.5 sigma (where ``r`` is a few mm) and the last row is the pulse position. With
+    ``lobe="cone"`` it is the cone of ``cone_half_angle_deg`` around the beam axis, capped by
+    the sphere of radius ``range_limit_m``.
+    """
+    if len(pose) != 1:
+        raise ValueError(f"lobe_surface takes one pose; got {len(pose)} (index it: poses[i])")
+    p = pose.positions[0]
+    d, l_, u = pose.forward[0], pose.left[0], pose.up[0]
+    rmax = float(sonar.range_limit_m)
+    phi = np.linspace(0.0, 2.0 * np.pi, n_phi + 1)
+    if sonar.lobe == "cone":
+        axis = d
+        alpha = np.linspace(0.0, math.radians(sonar.cone_half_angle_deg), n_alpha)
+    else:
+        az0, el0 = (math.radians(v) for v in sonar.beam.center_deg)
+        axis = (
+            math.cos(el0) * math.cos(az0) * d
+            + math.cos(el0) * math.sin(az0) * l_
+            + math.sin(el0) * u
+        )
+        sig = max(sonar.beam.sigmas_rad)
+        if sonar.receiver is not None:
+            sig = max(sig, *sonar.receiver.sigmas_rad)
+        alpha = np.linspace(0.0, min(3.5 * sig, math.radians(175.0)), n_alpha)
+    b1, b2 = _orthonormal_pair(axis / np.linalg.norm(axis))
+    A, P = np.meshgrid(alpha, phi, indexing="ij")
+    e = (
+        np.cos(A)[..., None] * axis
+        + (np.sin(A) * np.cos(P))[..., None] * b1
+        + (np.sin(A) * np.sin(P))[..., None] * b2
+    )
+    if sonar.lobe == "cone":
+        r = np.full(A.shape, rmax)
+    else:
+        ed, el_, eu = e @ d, e @ l_, e @ u
+        az = np.arctan2(el_, ed)
+        el = np.arctan2(eu, np.hypot(ed, el_))
+        s_tx = sonar.beam.gain(az, el)
+        s_rx = s_tx if sonar.receiver is None else sonar.receiver.gain(az, el)
+        reach2 = (
+            sonar.r0_m**2
+            * sonar.p0_pa
+            * s_tx
+            * s_rx
+            / (10.0 ** (sonar.threshold_db / 20.0) * sonar.p_ref_pa)
+        )
+        r = np.minimum(np.sqrt(reach2), rmax)
+    pts = p + r[..., None] * e
+    pts = np.concatenate([pts, np.broadcast_to(p, (1, *pts.shape[1:]))], axis=0)
+    return pts[..., 0], pts[..., 1], pts[..., 2]
+
+
+def _scene_leaves(obj: Any):
+    from ..forest.scene import Scene
+    from ..trees.leaves import Leaves
+
+    if isinstance(obj, Leaves):
+        return obj
+    if isinstance(obj, Scene):
+        return obj.leaves
+    lv = getattr(obj, "leaves", None)
+    if isinstance(lv, Leaves):
+        return lv
+    if callable(getattr(obj, "scene", None)):
+        return obj.scene().leaves
+    raise TypeError(
+        f"plot_scene_3d needs Leaves, a Scene, or an object with .leaves; got {type(obj).__name__}"
+    )
+
+
+def _bark_arrays(obj: Any, bark: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    if bark is False:
+        return None
+    src = obj if bark is None or bark is True else bark
+    if isinstance(src, tuple) and len(src) in (2, 3):
+        v, f = src[0], src[1]
+    elif callable(getattr(src, "bark", None)):  # a Forest: bark() -> (vertices, faces, owner)
+        v, f = src.bark()[:2]
+    else:
+        v = getattr(src, "bark_vertices", None)
+        f = getattr(src, "bark_faces", None)
+    if v is None or f is None:
+        return None
+    v = np.asarray(v, dtype=np.float64)
+    f = np.asarray(f, dtype=np.int64)
+    if v.ndim != 2 or v.shape[-1] != 3 or f.ndim != 2 or f.shape[-1] != 3 or not len(f):
+        return None
+    return v, f
+
+
+def _trajectory_points(trajectory: Any) -> np.ndarray | None:
+    if trajectory is None:
+        return None
+    pos = getattr(trajectory, "positions", None)  # Flight, Poses
+    if pos is not None and not callable(pos):
+        return np.asarray(pos, dtype=np.float64)
+    if callable(getattr(trajectory, "position", None)):  # timed Trajectory
+        dur = float(getattr(trajectory, "duration", math.inf))
+        if not math.isfinite(dur):
+            raise ValueError("a trajectory without a finite duration cannot be drawn")
+        return np.asarray(trajectory.position(np.linspace(0.0, dur, 400)), dtype=np.float64)
+    arr = np.asarray(trajectory, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"trajectory must be (k, 3) points, got shape {arr.shape}")
+    return arr
+
+
+def _subsample(idx: np.ndarray, k: int, seed: int = 0) -> np.ndarray:
+    if len(idx) <= k:
+        return idx
+    return np.sort(np.random.default_rng(seed).choice(idx, size=k, replace=False))
+
+
+def plot_scene_3d(
+    leaves_or_scene: Any,
+    poses=None,
+    sonar=None,
+    members: Any = None,
+    trajectory: Any = None,
+    bark: Any = None,
+    ax=None,
+    max_points: int = 6000,
+    lobe_poses: Sequence[int] | None = None,
+    max_bark_faces: int = 4000,
+    title: str | None = None,
+    elev: float = 22.0,
+    azim: float = -60.0,
+):
+    """The 3-D scene: leaves, bark, the flight path, the pulses, the sonar lobes.
+
+    ``leaves_or_scene``: Leaves, a Scene, or anything with ``.leaves`` (a tree, a forest, an OBJ
+    Mesh). At most ``max_points`` leaf centres are drawn (a fixed random subset).
+    ``poses``: pulse poses, drawn as markers with a short arrow along the beam axis.
+    ``sonar`` and ``lobe_poses`` (indices into ``poses``; default: every pose if there are at
+    most 4, else none): the lobe of each is drawn as a translucent surface
+    (:func:`lobe_surface`). ``members``: leaf indices to highlight (e.g. from
+    :func:`batecho.lobe_members`), or a list of such arrays. ``trajectory``: a (k, 3) polyline,
+    a timed trajectory or a Flight, drawn as a line. ``bark``: None (the object's own bark:
+    ``bark_vertices``/``bark_faces``, or a forest's ``bark()``), False, ``(vertices, faces)``
+    or an object with those; at most ``max_bark_faces`` triangles, the largest. Axes have
+    equal scale.
+    """
+    plt = _plt()
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    leaves = _scene_leaves(leaves_or_scene)
+    fig = None
+    if ax is None:
+        fig = plt.figure(figsize=(8, 7), constrained_layout=True)
+        ax = fig.add_subplot(projection="3d")
+    c = leaves.centers
+    bounds = [c.min(axis=0), c.max(axis=0)]
+    shown = _subsample(np.arange(len(leaves)), int(max_points))
+    ax.scatter(
+        c[shown, 0],
+        c[shown, 1],
+        c[shown, 2],
+        s=1.0,
+        c=LEAF_COLOR,
+        alpha=0.35,
+        linewidths=0,
+        depthshade=False,
+        label=f"leaves ({len(leaves)})",
+    )
+    bk = _bark_arrays(leaves_or_scene, bark)
+    if bk is not None:
+        v, f = bk
+        tri = v[f]
+        if len(tri) > max_bark_faces:  # the largest triangles: trunk and main branches first
+            area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+            tri = tri[np.sort(np.argsort(-area, kind="stable")[: int(max_bark_faces)])]
+        ax.add_collection3d(
+            Poly3DCollection(tri, facecolor=BARK_COLOR, edgecolor="none", alpha=0.6)
+        )
+        bounds += [v.min(axis=0), v.max(axis=0)]
+    if members is not None:
+        parts = members if isinstance(members, (list, tuple)) else [members]
+        arrs = [np.asarray(m, dtype=np.int64).ravel() for m in parts]
+        idx = np.unique(np.concatenate(arrs)) if arrs else np.zeros(0, np.int64)
+        if idx.size:
+            idx = _subsample(idx, int(max_points), seed=2)
+            ax.scatter(
+                c[idx, 0],
+                c[idx, 1],
+                c[idx, 2],
+                s=4.0,
+                c=MEMBER_COLOR,
+                alpha=0.9,
+                linewidths=0,
+                depthshade=False,
+                label="leaves in the lobe",
+            )
+    path = _trajectory_points(trajectory)
+    if path is not None and len(path):
+        ax.plot(path[:, 0], path[:, 1], path[:, 2], color=PATH_COLOR, lw=1.2, label="flight path")
+        bounds += [path.min(axis=0), path.max(axis=0)]
+    if poses is not None:
+        pp = poses.positions
+        many = len(poses) > 30
+        ax.scatter(
+            pp[:, 0],
+            pp[:, 1],
+            pp[:, 2],
+            s=6 if many else 22,
+            c="k",
+            marker="o",
+            depthshade=False,
+            label=f"pulses ({len(poses)})",
+        )
+        sel = (
+            (range(len(poses)) if len(poses) <= 4 else [])
+            if lobe_poses is None
+            else [int(i) for i in lobe_poses]
+        )
+        # Beam axes: every pulse's when there are few, else those of the lobes drawn.
+        ai = np.asarray(list(sel) if many else range(len(poses)), dtype=np.int64)
+        span = float(np.max(np.ptp(np.vstack(bounds), axis=0)))
+        arrow = 0.08 * max(span, 1.0)
+        if ai.size:
+            fw = poses.forward[ai] * arrow
+            ax.quiver(
+                pp[ai, 0], pp[ai, 1], pp[ai, 2], fw[:, 0], fw[:, 1], fw[:, 2], color="k", lw=0.8
+            )
+        bounds += [pp.min(axis=0), pp.max(axis=0)]
+        if sonar is not None:
+            for k, i in enumerate(sel):
+                X, Y, Z = lobe_surface(sonar, poses[i])
+                ax.plot_surface(
+                    X,
+                    Y,
+                    Z,
+                    color=LOBE_COLORS[k % len(LOBE_COLORS)],
+                    alpha=0.18,
+                    linewidth=0,
+                    shade=False,
+                )
+                ax.plot_wireframe(
+                    X,
+                    Y,
+                    Z,
+                    rstride=6,
+                    cstride=6,
+                    color=LOBE_COLORS[k % len(LOBE_COLORS)],
+                    lw=0.3,
+                    alpha=0.5,
+                )
+                # The lobe is part of the picture: keep the axes wide enough to hold it.
+                bounds += [
+                    np.array([X.min(), Y.min(), Z.min()]),
+                    np.array([X.max(), Y.max(), Z.max()]),
+                ]
+    lo = np.min(np.vstack(bounds), axis=0)
+    hi = np.max(np.vstack(bounds), axis=0)
+    pad = 0.03 * max(float((hi - lo).max()), 1e-3)
+    lo, hi = lo - pad, hi + pad
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(np.maximum(hi - lo, 1e-3)))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.view_init(elev=elev, azim=azim)
+    leg = ax.legend(loc="upper left", fontsize=7)
+    for h in getattr(leg, "legend_handles", getattr(leg, "legendHandles", [])):
+        if hasattr(h, "set_sizes"):
+            h.set_sizes([12.0])
+    if title:
+        ax.set_title(title, fontsize=10)
+    return fig or ax.figure

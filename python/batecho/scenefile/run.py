@@ -1,0 +1,297 @@
+"""Running a scene file: build its scene, sonar and flight, simulate the echoes, and write
+``echoes.npz``, the plots of ``[output]`` and, if asked, the scene as an OBJ file."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
+from ..forest.scene import Scene
+from ..outputs.npz import write_npz
+from ..sonar.beam import Beam
+from ..sonar.sonar import Sonar
+from .file import SceneFile
+from .flightplan import FlightPlan
+from .schema import ScenefileError
+
+__all__ = [
+    "RunResult",
+    "SimulationSetup",
+    "run_scenefile",
+    "sample_indices",
+    "setup_scenefile",
+    "simulate_options",
+    "sonar_params",
+]
+
+
+def sonar_params(sonar: Sonar) -> dict[str, Any]:
+    """A :class:`batecho.Sonar`'s parameters as a dict that is also a valid ``[sonar]`` table
+    (None values left out; ``beam``/``receiver``/``absorption`` as sub-tables)."""
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(sonar):
+        if f.name.startswith("_"):
+            continue
+        v = getattr(sonar, f.name)
+        if v is None:
+            continue
+        if f.name in ("beam", "receiver", "absorption"):
+            sub = {
+                g.name: list(getattr(v, g.name))
+                if isinstance(getattr(v, g.name), tuple)
+                else getattr(v, g.name)
+                for g in dataclasses.fields(v)
+                if getattr(v, g.name) is not None
+            }
+            out[f.name] = sub
+        elif isinstance(v, tuple):
+            out[f.name] = list(v)
+        else:
+            out[f.name] = v
+    if sonar.beam is not None and sonar.beam.beamwidth_deg is not None:
+        defaults = Beam(beamwidth_deg=sonar.beam.beamwidth_deg)
+        if sonar.beam == defaults:
+            out.pop("beam")
+            out["beamwidth_deg"] = sonar.beam.beamwidth_deg
+    return out
+
+
+def simulate_options(method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL) -> dict[str, Any]:
+    """Keyword arguments for :func:`batecho.simulate`: none for its defaults, else ``method``
+    and ``tol``."""
+    if method == DEFAULT_METHOD and tol == DEFAULT_TOL:
+        return {}
+    return {"method": method, "tol": float(tol)}
+
+
+@dataclass
+class SimulationSetup:
+    """Everything built from a scene file, ready to simulate and to record."""
+
+    scenefile: SceneFile
+    scene_object: Any
+    scene: Scene
+    tree_positions: np.ndarray | None
+    center_xy: np.ndarray
+    sonar: Sonar
+    plan: FlightPlan
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+
+def setup_scenefile(sf: SceneFile) -> SimulationSetup:
+    """Build the scene, the sonar and the flight of a scene file (seeded by its ``seed``)."""
+    rng = np.random.default_rng(sf.seed)
+    t0 = time.perf_counter()
+    obj, leaves, pos = sf.build_scene(rng)
+    t1 = time.perf_counter()
+    scene = Scene(leaves)
+    t2 = time.perf_counter()
+    sonar = sf.build_sonar()
+    if pos is not None and len(pos):
+        center = np.asarray(pos, dtype=np.float64).mean(axis=0)
+    else:
+        lo, hi = leaves.bounds()
+        center = 0.5 * (lo[:2] + hi[:2])
+    plan = sf.build_flight(center)
+    t3 = time.perf_counter()
+    return SimulationSetup(
+        sf,
+        obj,
+        scene,
+        pos,
+        center,
+        sonar,
+        plan,
+        {"scene_s": t1 - t0, "bvh_s": t2 - t1, "flight_s": t3 - t2},
+    )
+
+
+def sample_indices(p: int, k: int, closed: bool) -> np.ndarray:
+    """``k`` pulse indices spread over ``p`` pulses (a loop: ``p j / k``; else both ends)."""
+    k = max(1, min(int(k), p))
+    if closed:
+        return np.unique((p * np.arange(k) // k).astype(np.int64))
+    return np.unique(np.linspace(0, p - 1, k).round().astype(np.int64))
+
+
+@dataclass
+class RunResult:
+    """What :func:`run_scenefile` did: the echoes, the files written and the timings (s)."""
+
+    setup: SimulationSetup
+    echoes: Any
+    files: list[Path]
+    timings_s: dict[str, float]
+
+
+def run_scenefile(
+    sf: SceneFile,
+    out_dir: str | os.PathLike,
+    *,
+    plots: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> RunResult:
+    """Build, simulate and write the outputs of a scene file into ``out_dir``.
+
+    Writes ``echoes.npz`` (``[output] npz``) with keys ``spectrum``, ``freqs``, ``band_bins``
+    (first and last band bin: ``impulse = 2 irfft(Y, n_samples)`` with ``Y`` zero outside
+    them), ``impulse`` (unless ``impulse = false``), ``times``, ``n_leaves``, ``positions``,
+    ``forward``, ``up``, ``left``, ``pulse_times`` (empty for pulses placed by count),
+    ``sample_indices``, ``tree_positions``, ``path_points``, ``seed``, ``config_toml`` (the
+    file as given), ``config_json`` (every table with its defaults), ``sonar_json``,
+    ``scene_json``, ``batecho_version`` and, when flown, ``flight_times``,
+    ``flight_positions``, ``flight_reference_positions``; the PNG plots of ``[output] plots``
+    (``scene_3d.png``, ``impulses.png``, ``echo_image.png``, ``spectrogram.png``,
+    ``spectrum.png``) and, with ``[output] obj = true``, ``scene.obj``. ``progress(message)``
+    is told of each step.
+    """
+    from ..echoes.simulate import simulate
+
+    say = progress or (lambda msg: None)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    say("building the scene and the flight")
+    st = setup_scenefile(sf)
+    cfg = sf.config
+    oc = cfg["output"]
+    say(f"simulating {len(st.plan.poses)} pulses on {st.scene.n_leaves} leaves")
+    t0 = time.perf_counter()
+    try:
+        echoes = simulate(
+            st.scene, st.sonar, st.plan.poses, **simulate_options(cfg["method"], cfg["tol"])
+        )
+    except ValueError as exc:
+        raise ScenefileError(f"{sf.path or '<string>'}: simulating: {exc}") from None
+    timings = dict(st.timings_s, simulate_s=time.perf_counter() - t0)
+    files: list[Path] = []
+    p = len(echoes)
+    idx = sample_indices(p, oc["sample_points"], st.plan.closed)
+    if oc["npz"]:
+        say("writing echoes.npz")
+        scene_desc = {
+            "kind": cfg["scene"]["kind"],
+            "n_leaves": st.scene.n_leaves,
+            "center_xy": st.center_xy.tolist(),
+            "tree_positions": None if st.tree_positions is None else st.tree_positions.tolist(),
+        }
+        arrays: dict[str, Any] = {
+            "spectrum": echoes.spectrum,
+            "freqs": echoes.freqs,
+            "band_bins": np.asarray(st.sonar.bins),
+            "times": echoes.times,
+            "n_leaves": echoes.n_leaves,
+            "positions": echoes.poses.positions,
+            "forward": echoes.poses.forward,
+            "up": echoes.poses.up,
+            "left": echoes.poses.left,
+            "pulse_times": np.zeros(0) if st.plan.pulse_times is None else st.plan.pulse_times,
+            "sample_indices": idx,
+            "tree_positions": np.zeros((0, 2)) if st.tree_positions is None else st.tree_positions,
+            "path_points": st.plan.path_points,
+            "seed": sf.seed,
+            "config_toml": sf.text,
+        }
+        if oc["impulse"]:
+            arrays["impulse"] = echoes.impulse
+        if st.plan.flight is not None:
+            fl = st.plan.flight
+            arrays["flight_times"] = fl.times
+            arrays["flight_positions"] = fl.positions
+            arrays["flight_reference_positions"] = fl.reference_positions
+        records = {
+            "config_json": cfg,
+            "sonar_json": sonar_params(st.sonar),
+            "scene_json": scene_desc,
+        }
+        files.append(write_npz(out / "echoes.npz", arrays, records))
+    if oc["obj"]:
+        say("writing scene.obj")
+        files.append(_write_scene_obj(st, out / "scene.obj"))
+    if plots and oc["plots"]:
+        files += _plots(st, echoes, idx, out, oc, say)
+    return RunResult(st, echoes, files, timings)
+
+
+def _write_scene_obj(st: SimulationSetup, path: Path) -> Path:
+    obj = st.scene_object
+    if callable(getattr(obj, "to_obj", None)):
+        return Path(obj.to_obj(path) or path)
+    from ..trees.objfile import write_obj
+
+    return write_obj(path, leaves=st.scene.leaves)
+
+
+def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    from ..echoes.simulate import lobe_members
+    from ..outputs.plots import (
+        plot_echo_image,
+        plot_impulses,
+        plot_scene_3d,
+        plot_spectrogram,
+        plot_spectrum,
+    )
+
+    files = []
+    dpi = oc["dpi"]
+    best = int(idx[np.argmax(echoes.n_leaves[idx])])
+
+    def save(fig, name):
+        fig.savefig(out / name, dpi=dpi)
+        plt.close(fig)
+        files.append(out / name)
+
+    bw = None if st.sonar.beam is None else st.sonar.beam.beamwidth_deg
+    beam = f"{bw:g} deg beam" if bw is not None else "custom beam"
+    for name in oc["plots"]:
+        say(f"plotting {name}")
+        if name == "scene":
+            members = [lobe_members(st.scene, st.sonar, st.plan.poses[int(i)]) for i in idx]
+            fig = plot_scene_3d(
+                st.scene_object,
+                st.plan.poses,
+                st.sonar,
+                members=members,
+                trajectory=st.plan.path_points,
+                lobe_poses=idx,
+                max_points=oc["max_scene_points"],
+                title=f"{st.scene.n_leaves:,} leaves, {len(echoes)} pulses, lobes of pulses "
+                f"{', '.join(str(int(i)) for i in idx)} ({beam})",
+            )
+            save(fig, "scene_3d.png")
+        elif name == "impulses":
+            fig = plot_impulses(
+                echoes,
+                idx,
+                titles=[
+                    f"pulse {int(i)}: {int(echoes.n_leaves[i])} leaves in the lobe" for i in idx
+                ],
+            )
+            save(fig, "impulses.png")
+        elif name == "echo_image":
+            x = st.plan.x
+            order_ok = len(np.unique(x)) == len(x)
+            fig = plot_echo_image(
+                echoes,
+                x=x if order_ok else None,
+                xlabel=st.plan.x_label if order_ok else "pulse",
+                title=f"Echo envelopes along the flight ({beam})",
+            )
+            save(fig, "echo_image.png")
+        elif name == "spectrogram":
+            fig = plot_spectrogram(echoes, best)
+            fig.axes[0].set_title(f"pulse {best}: {int(echoes.n_leaves[best])} leaves", fontsize=10)
+            save(fig, "spectrogram.png")
+        elif name == "spectrum":
+            fig = plot_spectrum(echoes, best)
+            save(fig, "spectrum.png")
+    return files

@@ -1,0 +1,433 @@
+"""The scene-file schema: every table and key a scene file may hold, with its type, choices
+and default, and the checks that fill in the defaults of a parsed file.
+
+``batecho simulate SCENE.toml`` reads one (see ``examples/flight.toml``)::
+
+    seed = 7                      # every random draw (leaves, trees, tree positions)
+
+    [scene]                       # kind = "leaf_box" | "obj" | "tree" | "forest"
+    kind = "forest"
+    n_trees = 3                   # forest: the paper's IPP conditioned on 3 trees
+    [scene.tree]                  # parameters of batecho.trees.grow_tree
+
+    [sonar]                       # any batecho.Sonar parameter
+    beamwidth_deg = 30
+
+    [flight]                      # path = "circle" | "line" | "figure_eight" | "waypoints"
+    path = "circle"               # around the mean tree position by default
+    radius = 6.2
+    altitude = 5.0
+    heading = "center"
+    mode = "flown"                # or "kinematic"
+    quadrotor = "crazyflie"
+    pulse_rate_hz = 10            # or n_pulses = 15
+    [flight.mount]                # batecho.SonarMount
+    pitch_deg = -5
+
+    [output]
+    plots = ["scene", "impulses", "echo_image", "spectrogram"]
+
+Every key is checked: an unknown key, a value of the wrong type or out of its choices raises
+:class:`ScenefileError` naming the file, the table and the key. Lengths in metres, times in
+seconds, angles in degrees (keys ending ``_deg``), frequencies in Hz.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
+from ..forest.models import TREE_MODELS
+
+__all__ = ["PLOTS", "SCENE_KEYS_BY_KIND", "ScenefileError", "check_document"]
+
+#: The plots a scene file may ask for in ``[output] plots``.
+PLOTS = ("scene", "impulses", "echo_image", "spectrogram", "spectrum")
+
+
+class ScenefileError(ValueError):
+    """A problem in a scene file: the message names the file, the table and the key."""
+
+
+_REQUIRED = object()
+_OMIT = object()  # not given and not passed on: the library's own default applies
+
+
+@dataclass(frozen=True)
+class _Opt:
+    kind: str
+    default: Any = _OMIT
+    choices: tuple = ()
+    doc: str = ""
+
+
+def _table(fields: dict[str, _Opt]) -> _Opt:
+    return _Opt("table", {}, doc="", choices=(fields,))
+
+
+# ----------------------------------------------------------------------------- the schema
+
+_BEAM = {
+    "beamwidth_deg": _Opt("float", doc="full -3 dB width, deg"),
+    "sigma_deg": _Opt("float_or_pair", doc="Gaussian sigma, deg, or [sigma_az, sigma_el]"),
+    "rotation_deg": _Opt("float"),
+    "center_deg": _Opt("pair", doc="[az0, el0], deg"),
+    "amplitude": _Opt("float"),
+}
+_ATMOSPHERE = {
+    "temperature_c": _Opt("float"),
+    "relative_humidity": _Opt("float"),
+    "pressure_pa": _Opt("float"),
+}
+_SONAR = {
+    "beamwidth_deg": _Opt("float", doc="full -3 dB beamwidth, deg (default 30)"),
+    "horseshoe_bat_khz": _Opt("float", doc="beamwidth from the horseshoe-bat fit at this kHz"),
+    "fs": _Opt("float"),
+    "n_samples": _Opt("int_or_auto", doc='record length, or "auto" (from the farthest leaf)'),
+    "record_tail_s": _Opt("float", doc='with n_samples = "auto": ring-down after the last echo'),
+    "band_hz": _Opt("pair"),
+    "sound_speed": _Opt("float"),
+    "lobe": _Opt("str", choices=("detectable", "cone")),
+    "threshold_db": _Opt("float"),
+    "cone_half_angle_deg": _Opt("float"),
+    "max_range_m": _Opt("float"),
+    "r0_m": _Opt("float"),
+    "p0_pa": _Opt("float"),
+    "p_ref_pa": _Opt("float"),
+    "leaf_model": _Opt("str", choices=("paper", "physical_optics")),
+    "spreading": _Opt("bool"),
+    "gain": _Opt("float"),
+    "window": _Opt("str", choices=("hann", "rect")),
+    "min_range_m": _Opt("float"),
+    "too_close": _Opt("str", choices=("raise", "skip")),
+    "min_ka": _Opt("float"),
+    "beam": _table(_BEAM),
+    "receiver": _table(_BEAM),
+    "absorption": _table(_ATMOSPHERE),
+}
+_SCENE_KINDS = ("leaf_box", "obj", "tree", "forest")
+_TREE_MODELS = tuple(TREE_MODELS)
+_SCENE = {
+    "kind": _Opt("str", _REQUIRED, choices=_SCENE_KINDS),
+    # leaf_box
+    "density_per_m3": _Opt("float"),
+    "box": _Opt("box", doc="[[x0, x1], [y0, y1], [z0, z1]], m"),
+    "radius_mean_m": _Opt("float"),
+    "radius_sd_m": _Opt("float"),
+    "normal_angle_mean_deg": _Opt("float"),
+    "normal_angle_sd_deg": _Opt("float"),
+    # obj
+    "path": _Opt("str"),
+    "leaf_patterns": _Opt("strs"),
+    "up": _Opt("str", choices=("z", "y")),
+    "per": _Opt("str", choices=("patch", "face")),
+    "scale": _Opt("float"),
+    "offset": _Opt("vec3", doc="translation applied after loading, m"),
+    # tree and forest
+    "model": _Opt("str", "grow_tree", choices=_TREE_MODELS),
+    "position": _Opt("vec2", doc="tree position (x, y), m"),
+    "positions": _Opt("points2", doc="tree positions [[x, y], ...], m"),
+    "n_trees": _Opt("int", doc="condition the IPP on this many trees"),
+    "intensity": _Opt("intensity", doc='"paper" or a table of squared-exponential bumps'),
+    "window": _Opt("window", doc="[xmin, xmax, ymin, ymax], m"),
+    "tree": _Opt("table", {}, doc="parameters of the tree model"),
+    "variants": _Opt("int", doc="grow this many trees and reuse them (instancing)"),
+    "scale_sd": _Opt("float", doc="tree sizes exp(scale_sd z), z ~ N(0, 1)"),
+}
+SCENE_KEYS_BY_KIND = {
+    "leaf_box": {
+        "density_per_m3",
+        "box",
+        "radius_mean_m",
+        "radius_sd_m",
+        "normal_angle_mean_deg",
+        "normal_angle_sd_deg",
+    },
+    "obj": {"path", "leaf_patterns", "up", "per", "scale", "offset"},
+    "tree": {"model", "position", "tree"},
+    "forest": {
+        "model",
+        "positions",
+        "n_trees",
+        "intensity",
+        "window",
+        "tree",
+        "variants",
+        "scale_sd",
+    },
+}
+_PATHS = ("circle", "line", "figure_eight", "waypoints")
+_HEADINGS = ("velocity", "center", "look_at", "fixed")
+_MOUNT = {
+    "offset": _Opt("vec3", doc="body frame, m"),
+    "pitch_deg": _Opt("float"),
+    "yaw_deg": _Opt("float"),
+    "roll_deg": _Opt("float"),
+}
+_FLIGHT = {
+    "path": _Opt("str", "circle", choices=_PATHS),
+    "mode": _Opt("str", "kinematic", choices=("kinematic", "flown")),
+    "center": _Opt("vec2", doc="circle / figure-eight centre (x, y), m; default the scene's"),
+    "radius": _Opt("float", doc="m; default 6.2 (circle), 3.1 (figure eight)"),
+    "altitude": _Opt("float", 5.0),
+    "heading": _Opt("str", "velocity", choices=_HEADINGS),
+    "target": _Opt("vec3", doc="look-at point / end of a line, m"),
+    "yaw_deg": _Opt("float"),
+    "start_angle_deg": _Opt("float", 0.0),
+    "start": _Opt("vec3", doc="start of a line, m"),
+    "stop_distance": _Opt("float", 1.0),
+    "points": _Opt("points3", doc="waypoints [[x, y, z], ...], m"),
+    "closed": _Opt("bool", False),
+    "speed": _Opt("float", 2.0),
+    "n_pulses": _Opt("int"),
+    "pulse_rate_hz": _Opt("float"),
+    "duration": _Opt("float"),
+    "quadrotor": _Opt("str", "crazyflie", choices=("crazyflie", "research")),
+    "dt": _Opt("float", 0.002),
+    "mount": _table(_MOUNT),
+}
+_FLIGHT_ONLY = {
+    "center": ("circle", "figure_eight"),
+    "radius": ("circle", "figure_eight"),
+    "start_angle_deg": ("circle", "figure_eight"),
+    "start": ("line",),
+    "stop_distance": ("line",),
+    "points": ("waypoints",),
+    "closed": ("waypoints",),
+}
+_OUTPUT = {
+    "plots": _Opt("plots", ["scene", "impulses", "echo_image", "spectrogram"]),
+    "npz": _Opt("bool", True),
+    "impulse": _Opt("bool", True, doc="store the impulse responses in the NPZ"),
+    "obj": _Opt("bool", False, doc="write the scene as scene.obj"),
+    "dpi": _Opt("int", 120),
+    "sample_points": _Opt("int", 4, doc="pulses whose impulse responses and lobes are drawn"),
+    "max_scene_points": _Opt("int", 6000),
+}
+_TOP = {
+    "seed": _Opt("int", 0),
+    "description": _Opt("str", ""),
+    "method": _Opt("str", DEFAULT_METHOD, choices=METHODS),
+    "tol": _Opt("float", DEFAULT_TOL, doc="relative L2 error of the spectrum for method fast/auto"),
+    "scene": _table(_SCENE),
+    "sonar": _table(_SONAR),
+    "flight": _table(_FLIGHT),
+    "output": _table(_OUTPUT),
+}
+
+
+# ------------------------------------------------------------------------------- checking
+
+
+def _tname(v: Any) -> str:
+    if isinstance(v, bool):
+        return "a boolean"
+    if isinstance(v, int):
+        return "an integer"
+    if isinstance(v, float):
+        return "a number"
+    if isinstance(v, str):
+        return "a string"
+    if isinstance(v, list):
+        return "an array"
+    if isinstance(v, dict):
+        return "a table"
+    return type(v).__name__
+
+
+def _is_num(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _fail(where: str, key: str, msg: str) -> ScenefileError:
+    return ScenefileError(f"[{where}] {key}: {msg}")
+
+
+def _nums(v: Any, n: int | None, where: str, key: str, what: str) -> list[float]:
+    if not isinstance(v, list) or not all(_is_num(x) for x in v) or (n and len(v) != n):
+        raise _fail(where, key, f"expected {what}, got {v!r} ({_tname(v)})")
+    out = [float(x) for x in v]
+    if not all(math.isfinite(x) for x in out):
+        raise _fail(where, key, f"values must be finite, got {v!r}")
+    return out
+
+
+def _points(v: Any, dim: int, where: str, key: str) -> list[list[float]]:
+    what = f"an array of [{', '.join('xyz'[:dim])}] points"
+    if not isinstance(v, list) or not v:
+        raise _fail(where, key, f"expected {what}, got {v!r} ({_tname(v)})")
+    return [_nums(p, dim, where, key, what) for p in v]
+
+
+def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
+    k = opt.kind
+    if k == "float":
+        if not _is_num(v) or not math.isfinite(float(v)):
+            raise _fail(where, key, f"expected a number, got {v!r} ({_tname(v)})")
+        return float(v)
+    if k == "int":
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise _fail(where, key, f"expected an integer, got {v!r} ({_tname(v)})")
+        return v
+    if k == "int_or_auto":
+        if v == "auto":
+            return v
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise _fail(where, key, f'expected an integer or "auto", got {v!r} ({_tname(v)})')
+        return v
+    if k == "bool":
+        if not isinstance(v, bool):
+            raise _fail(where, key, f"expected true or false, got {v!r} ({_tname(v)})")
+        return v
+    if k == "str":
+        if not isinstance(v, str):
+            raise _fail(where, key, f"expected a string, got {v!r} ({_tname(v)})")
+        if opt.choices and v not in opt.choices:
+            raise _fail(
+                where, key, f"{v!r} is not one of {', '.join(repr(c) for c in opt.choices)}"
+            )
+        return v
+    if k == "strs":
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+            raise _fail(where, key, f"expected an array of strings, got {v!r}")
+        return list(v)
+    if k == "plots":
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+            raise _fail(where, key, f"expected an array of plot names, got {v!r}")
+        bad = [x for x in v if x not in PLOTS]
+        if bad:
+            raise _fail(where, key, f"unknown plot {bad[0]!r}; choose from {', '.join(PLOTS)}")
+        return list(v)
+    if k == "vec2":
+        return _nums(v, 2, where, key, "[x, y]")
+    if k == "vec3":
+        return _nums(v, 3, where, key, "[x, y, z]")
+    if k == "pair":
+        return _nums(v, 2, where, key, "two numbers")
+    if k == "float_or_pair":
+        if _is_num(v):
+            return float(v)
+        return _nums(v, 2, where, key, "a number or two numbers")
+    if k == "window":
+        return _nums(v, 4, where, key, "[xmin, xmax, ymin, ymax]")
+    if k == "box":
+        what = "[[x0, x1], [y0, y1], [z0, z1]]"
+        if not isinstance(v, list) or len(v) != 3:
+            raise _fail(where, key, f"expected {what}, got {v!r} ({_tname(v)})")
+        return [_nums(p, 2, where, key, what) for p in v]
+    if k == "points2":
+        return _points(v, 2, where, key)
+    if k == "points3":
+        return _points(v, 3, where, key)
+    if k == "intensity":
+        if v == "paper":
+            return v
+        if isinstance(v, dict):
+            allowed = {"centers", "length_scales", "weights"}
+            _unknown(v, allowed, f"{where}.{key}")
+            missing = allowed - set(v)
+            if missing:
+                raise _fail(where, key, f"missing {', '.join(sorted(missing))}")
+            out: dict[str, Any] = {"centers": _points(v["centers"], 2, f"{where}.{key}", "centers")}
+            ls = v["length_scales"]
+            out["length_scales"] = (
+                _nums(ls, None, f"{where}.{key}", "length_scales", "an array of numbers (m)")
+                if ls and all(_is_num(x) for x in ls)
+                else _points(ls, 2, f"{where}.{key}", "length_scales")
+            )
+            out["weights"] = _nums(
+                v["weights"], None, f"{where}.{key}", "weights", "an array of numbers (per m^2)"
+            )
+            return out
+        raise _fail(where, key, f'expected "paper" or a table, got {v!r} ({_tname(v)})')
+    if k == "table":
+        if not isinstance(v, dict):
+            raise _fail(where, key, f"expected a table, got {v!r} ({_tname(v)})")
+        if opt.choices:
+            return _check_table(v, opt.choices[0], f"{where}.{key}" if where else key)
+        return dict(v)
+    raise AssertionError(k)  # pragma: no cover
+
+
+def _unknown(d: Mapping, allowed, where: str) -> None:
+    for key in d:
+        if key not in allowed:
+            near = difflib.get_close_matches(key, list(allowed), n=1)
+            hint = f' (did you mean "{near[0]}"?)' if near else ""
+            label = f"[{where}]" if where else "top level"
+            raise ScenefileError(
+                f'{label}: unknown key "{key}"{hint}; allowed: {", ".join(sorted(allowed))}'
+            )
+
+
+def _check_table(d: Mapping, schema: dict[str, _Opt], where: str) -> dict[str, Any]:
+    _unknown(d, schema, where)
+    out: dict[str, Any] = {}
+    for key, opt in schema.items():
+        if key in d:
+            out[key] = _check_value(opt, d[key], where, key)
+        elif opt.default is _REQUIRED:
+            raise ScenefileError(f'[{where}]: missing key "{key}"')
+        elif opt.default is not _OMIT:
+            dflt = opt.default
+            out[key] = (
+                _check_table({}, opt.choices[0], f"{where}.{key}" if where else key)
+                if opt.kind == "table" and opt.choices
+                else (dict(dflt) if isinstance(dflt, dict) else dflt)
+            )
+    return out
+
+
+def check_document(doc: dict) -> dict[str, Any]:
+    if "scene" not in doc:
+        _unknown(doc, _TOP, "")
+        raise ScenefileError(
+            'missing table [scene] (with kind = "leaf_box", "obj", "tree" or "forest")'
+        )
+    cfg = _check_table(doc, _TOP, "")
+    sc = cfg["scene"]
+    kind = sc["kind"]
+    for key in doc["scene"]:
+        if key != "kind" and key not in SCENE_KEYS_BY_KIND[kind]:
+            raise ScenefileError(
+                f'[scene] {key}: not used with kind = "{kind}"; keys for this kind: '
+                f"{', '.join(sorted(SCENE_KEYS_BY_KIND[kind]))}"
+            )
+    if kind == "obj" and "path" not in sc:
+        raise ScenefileError('[scene]: kind = "obj" needs path = "tree.obj"')
+    if kind == "forest" and "positions" in sc and ("n_trees" in sc or "intensity" in sc):
+        raise ScenefileError("[scene]: give positions, or n_trees/intensity, not both")
+    if kind == "forest" and "n_trees" in sc and sc["n_trees"] < 1:
+        raise ScenefileError(f"[scene] n_trees: must be >= 1, got {sc['n_trees']}")
+    fl = cfg["flight"]
+    given = set(doc.get("flight", {}))
+    for key, paths in _FLIGHT_ONLY.items():
+        if key in given and fl["path"] not in paths:
+            raise ScenefileError(
+                f"[flight] {key}: only used with path = {' or '.join(repr(p) for p in paths)}, "
+                f'not "{fl["path"]}"'
+            )
+    if fl["mode"] == "kinematic" and ({"quadrotor", "dt"} & given):
+        raise ScenefileError('[flight] quadrotor, dt: only used with mode = "flown"')
+    if "n_pulses" in fl and "pulse_rate_hz" in fl:
+        raise ScenefileError("[flight]: give n_pulses or pulse_rate_hz, not both")
+    if "n_pulses" in fl and fl["n_pulses"] < 1:
+        raise ScenefileError(f"[flight] n_pulses: must be >= 1, got {fl['n_pulses']}")
+    if "n_pulses" not in fl and "pulse_rate_hz" not in fl:
+        fl["n_pulses"] = 15
+    if fl["path"] == "line" and "start" not in fl:
+        raise ScenefileError('[flight]: path = "line" needs start = [x, y, z]')
+    if fl["path"] == "waypoints" and "points" not in fl:
+        raise ScenefileError('[flight]: path = "waypoints" needs points = [[x, y, z], ...]')
+    if fl["heading"] == "fixed" and "yaw_deg" not in fl:
+        raise ScenefileError('[flight]: heading = "fixed" needs yaw_deg')
+    if "yaw_deg" in fl and fl["heading"] != "fixed":
+        raise ScenefileError('[flight] yaw_deg: only used with heading = "fixed"')
+    for key in ("sample_points", "dpi", "max_scene_points"):
+        if cfg["output"][key] < 1:
+            raise ScenefileError(f"[output] {key}: must be >= 1, got {cfg['output'][key]}")
+    return cfg

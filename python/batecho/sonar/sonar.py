@@ -1,0 +1,297 @@
+"""The sonar: every parameter of the echo model -- beams, lobe rule, frequency grid, leaf model,
+absorption -- checked and handed to the Rust core, and its record length (MODEL.md sections
+2-5).
+
+Angles are in degrees at this edge (names ending ``_deg``) and radians inside; lengths in m,
+frequencies in Hz, times in s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import _core
+from .._validate import finite_scalar, positive_scalar
+from .absorption import Atmosphere
+from .beam import Beam, horseshoe_bat_beamwidth_deg
+
+_LOBES = ("detectable", "cone")
+_MODELS = ("paper", "physical_optics")
+_WINDOWS = ("hann", "rect")
+# Record lengths whose resolved sonars an n_samples="auto" sonar keeps (the records a flight
+# needs vary little: each is a 2-3-5-smooth length).
+_RESOLVED_KEPT = 16
+
+#: Beamwidth used when neither ``beamwidth_deg`` nor ``beam`` is given (Ming's canonical 30 deg).
+DEFAULT_BEAMWIDTH_DEG = 30.0
+
+
+@dataclass(frozen=True)
+class Sonar:
+    """Every parameter of the echo model (MODEL.md), with its defaults.
+
+    Beam: ``beamwidth_deg`` (full -3 dB width, default 30) or a :class:`Beam` as ``beam`` for
+    sigma per axis, rotation and beam centre. ``receiver`` gives the receiver its own pattern
+    (default: the emitter's, so the two-way gain is ``S^2``).
+
+    Grid: sample rate ``fs`` (Hz), record length ``n_samples``, ``band_hz = (f_lo, f_hi)``,
+    ``sound_speed`` (m/s). Band bins run from ``round(f_lo/df)`` to ``round(f_hi/df)``,
+    ``df = fs/n_samples``. ``n_samples="auto"`` takes the record, per call of ``simulate``,
+    from the farthest leaf that counts for any of the poses, plus ``record_tail_s`` for the
+    pulse to ring down (the result's ``echoes.sonar`` holds the length used).
+
+    Lobe: ``lobe="detectable"`` (the authors' rule with ``threshold_db`` T, ``r0_m``, ``p0_pa``,
+    ``p_ref_pa``: on the axis the reach is 10 m) or ``"cone"`` with ``cone_half_angle_deg``.
+    Leaves beyond ``max_range_m`` (default: the record's range ``v n / (2 fs)``) never count.
+
+    Leaves: ``leaf_model="paper"`` (Ming et al.'s fit) or ``"physical_optics"``; ``spreading``
+    keeps the 1/r^2 of MODEL.md (False cancels it, as the authors' UAV scripts did); ``gain`` g;
+    ``window`` "hann" (periodic, over the band bins) or "rect"; ``absorption`` None or an
+    :class:`Atmosphere` (ISO 9613-1).
+
+    Guards: a leaf closer than ``min_range_m`` to a pulse raises (``too_close="raise"``) or is
+    left out (``"skip"``); leaves with ``k a < min_ka`` at the band's lowest frequency are
+    refused (the leaf models do not hold in the Rayleigh regime).
+    """
+
+    beamwidth_deg: float | None = None
+    beam: Beam | None = None
+    receiver: Beam | None = None
+    fs: float = 400e3
+    n_samples: int | str = 24_000
+    band_hz: tuple[float, float] = (60e3, 80e3)
+    sound_speed: float = 340.0
+    lobe: str = "detectable"
+    threshold_db: float = 20.0
+    cone_half_angle_deg: float | None = None
+    max_range_m: float | None = None
+    r0_m: float = 0.1
+    p0_pa: float = 2.0
+    p_ref_pa: float = 20e-6
+    leaf_model: str = "paper"
+    spreading: bool = True
+    gain: float = 0.2
+    window: str = "hann"
+    absorption: Atmosphere | None = None
+    min_range_m: float = 0.01
+    too_close: str = "raise"
+    min_ka: float = 0.5
+    record_tail_s: float = 1e-3
+    _core: Any = field(default=None, init=False, repr=False, compare=False)
+    # n_samples="auto": the fixed-record sonars already resolved, by record length (see resolve)
+    _resolved: Any = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        if self.beam is not None and self.beamwidth_deg is not None:
+            raise ValueError("give beamwidth_deg or beam, not both")
+        beam = self.beam
+        if beam is None:
+            bw = DEFAULT_BEAMWIDTH_DEG if self.beamwidth_deg is None else self.beamwidth_deg
+            beam = Beam(beamwidth_deg=bw)
+            object.__setattr__(self, "beam", beam)
+        for name, b in (("beam", self.beam), ("receiver", self.receiver)):
+            if b is not None and not isinstance(b, Beam):
+                raise TypeError(f"{name} must be a batecho.Beam, got {type(b).__name__}")
+        if self.lobe not in _LOBES:
+            raise ValueError(f"lobe must be one of {_LOBES}, got {self.lobe!r}")
+        if self.leaf_model not in _MODELS:
+            raise ValueError(f"leaf_model must be one of {_MODELS}, got {self.leaf_model!r}")
+        if self.window not in _WINDOWS:
+            raise ValueError(f"window must be one of {_WINDOWS}, got {self.window!r}")
+        if self.too_close not in ("raise", "skip"):
+            raise ValueError(f"too_close must be 'raise' or 'skip', got {self.too_close!r}")
+        if self.absorption is not None and not isinstance(self.absorption, Atmosphere):
+            raise TypeError("absorption must be None or a batecho.Atmosphere")
+        auto = isinstance(self.n_samples, str)
+        if auto and self.n_samples != "auto":
+            raise ValueError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
+        if not auto and (
+            isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer))
+        ):
+            raise TypeError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
+        positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
+        if len(tuple(self.band_hz)) != 2:
+            raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
+        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in self.band_hz)
+        fs = positive_scalar(self.fs, "fs")
+        if f_hi > fs / 2:
+            raise ValueError(
+                f"band upper edge {f_hi} Hz is above the Nyquist frequency fs/2 = {fs / 2} Hz"
+            )
+        cone = None
+        if self.lobe == "cone":
+            if self.cone_half_angle_deg is None:
+                raise ValueError("lobe='cone' needs cone_half_angle_deg")
+            h = finite_scalar(self.cone_half_angle_deg, "cone_half_angle_deg")
+            if not 0.0 < h < 180.0:
+                raise ValueError(f"cone_half_angle_deg must be in (0, 180), got {h}")
+            cone = math.radians(h)
+        atm = None
+        if self.absorption is not None:
+            a = self.absorption
+            atm = (float(a.temperature_c), float(a.relative_humidity), float(a.pressure_pa))
+        core = _core.Sonar(
+            beam._core_tuple(),
+            None if self.receiver is None else self.receiver._core_tuple(),
+            self.lobe,
+            float(self.threshold_db),
+            float(self.r0_m),
+            float(self.p0_pa),
+            float(self.p_ref_pa),
+            cone,
+            None if self.max_range_m is None else float(self.max_range_m),
+            fs,
+            self._provisional_n() if auto else int(self.n_samples),
+            f_lo,
+            f_hi,
+            float(self.sound_speed),
+            self.leaf_model,
+            bool(self.spreading),
+            float(self.gain),
+            self.window,
+            atm,
+            float(self.min_range_m),
+            self.too_close,
+            float(self.min_ka),
+        )
+        object.__setattr__(self, "_core", core)
+        object.__setattr__(self, "_resolved", {})
+
+    @classmethod
+    def horseshoe_bat(cls, f_khz: float = 70.0, **kwargs) -> Sonar:
+        """A sonar whose beamwidth is the horseshoe-bat fit ``BW(f)`` at ``f_khz`` (one value for
+        the whole band, as the authors did)."""
+        return cls(beamwidth_deg=horseshoe_bat_beamwidth_deg(f_khz), **kwargs)
+
+    def replace(self, **changes) -> Sonar:
+        """A copy with some parameters changed."""
+        if "beamwidth_deg" in changes:
+            changes.setdefault("beam", None)
+        elif "beam" in changes:
+            changes.setdefault("beamwidth_deg", None)
+        elif self.beamwidth_deg is not None:
+            changes["beam"] = None  # the beam was derived from beamwidth_deg
+        return dataclasses.replace(self, **changes)
+
+    # n_samples = "auto" ---------------------------------------------------------------------
+    @property
+    def is_auto(self) -> bool:
+        """True when the record length is chosen per simulation (``n_samples="auto"``)."""
+        return isinstance(self.n_samples, str)
+
+    def reach_m(self) -> float:
+        """The farthest a leaf can count from the lobe rule alone (m): ``sqrt(K A_tx A_rx)``
+        for the detectable rule (10 m with the defaults), ``max_range_m`` for the cone."""
+        if self.lobe == "cone":
+            if self.max_range_m is None:
+                return math.inf
+            return float(self.max_range_m)
+        level = 10.0 ** (self.threshold_db / 20.0) * self.p_ref_pa
+        K = self.r0_m * self.r0_m * self.p0_pa / level
+        tx = self.beam
+        assert tx is not None  # set in __post_init__
+        rx = tx if self.receiver is None else self.receiver
+        reach = math.sqrt(K * tx.amplitude * rx.amplitude)
+        return reach if self.max_range_m is None else min(reach, float(self.max_range_m))
+
+    def record_length_for(self, range_m: float) -> int:
+        """The record (samples, a 2-3-5-smooth even number) that holds echoes out to
+        ``range_m`` plus ``record_tail_s``."""
+        need = self.fs * (2.0 * float(range_m) / self.sound_speed + self.record_tail_s)
+        return _fft_size(max(256, math.ceil(need)))
+
+    def _provisional_n(self) -> int:
+        reach = self.reach_m()
+        if not math.isfinite(reach):
+            raise ValueError(
+                "n_samples='auto' with lobe='cone' needs max_range_m (the cone has no "
+                "range of its own)"
+            )
+        return self.record_length_for(reach)
+
+    def resolve(self, n_samples: int) -> Sonar:
+        """This sonar with a fixed record length. The same length gives the same (immutable)
+        sonar again, so that its FFT and fast-method plans, built on first use, serve every
+        later call instead of being rebuilt for each ``n_samples="auto"`` simulation."""
+        n = int(n_samples)
+        kept = self._resolved.get(n)
+        if kept is None:
+            kept = self.replace(n_samples=n)
+            if len(self._resolved) >= _RESOLVED_KEPT:
+                del self._resolved[next(iter(self._resolved))]  # the oldest
+            self._resolved[n] = kept
+        return kept
+
+    # Derived quantities -------------------------------------------------------------------
+    def _fixed(self, what: str) -> None:
+        if self.is_auto:
+            raise ValueError(
+                f"{what} depends on the record length, which n_samples='auto' chooses "
+                "per simulation: use echoes.sonar, or Sonar.resolve(n_samples)"
+            )
+
+    @property
+    def bins(self) -> tuple[int, int]:
+        """(k0, k1): first and last band bin (inclusive) of the length-``n_samples`` rFFT."""
+        self._fixed("bins")
+        return self._core.bins
+
+    @property
+    def n_bins(self) -> int:
+        """M, the number of band bins."""
+        k0, k1 = self.bins
+        return k1 - k0 + 1
+
+    @property
+    def delta_f(self) -> float:
+        """Bin spacing fs / n_samples (Hz)."""
+        self._fixed("delta_f")
+        return self.fs / int(self.n_samples)
+
+    @property
+    def freqs(self) -> np.ndarray:
+        """(M,) band-bin frequencies ``k fs / n`` (Hz)."""
+        self._fixed("freqs")
+        return self._core.freqs
+
+    @property
+    def times(self) -> np.ndarray:
+        """(n_samples,) sample times (s)."""
+        self._fixed("times")
+        return np.arange(int(self.n_samples)) / self.fs
+
+    @property
+    def record_range_m(self) -> float:
+        """Range covered by the record, ``v n / (2 fs)`` (m)."""
+        self._fixed("record_range_m")
+        return self.sound_speed * int(self.n_samples) / (2.0 * self.fs)
+
+    @property
+    def range_limit_m(self) -> float:
+        """Leaves beyond this range never count (m)."""
+        return self._core.range_limit
+
+    @property
+    def max_reach_m(self) -> float:
+        """The farthest a counting leaf can be (m): 10 m on the axis with the defaults."""
+        return self._core.max_reach
+
+
+def _fft_size(n: int) -> int:
+    """The smallest even 2-3-5-smooth integer >= n (fast FFT lengths)."""
+    while True:
+        m = n
+        for p in (2, 3, 5):
+            while m % p == 0:
+                m //= p
+        if m == 1 and n % 2 == 0:
+            return n
+        n += 1
+
+
+__all__ = ["DEFAULT_BEAMWIDTH_DEG", "Sonar"]
