@@ -1,7 +1,7 @@
 //! batecho: foliage echoes for bat-inspired sonar (the pure-Rust core).
 //!
-//! The numeric kernels here use no pyo3; the Python extension lives in [`bindings`] behind the
-//! `python` feature, so `cargo test` and `cargo bench` run without Python.
+//! The numeric kernels here use no pyo3; the Python extension `batecho._core` is the crate in
+//! `rust/python`, so `cargo test` and `cargo bench` run without Python.
 //! Units: metres, seconds, hertz, radians.
 
 // `!(x <= y)` is used on purpose throughout: it is true for NaN, so NaN never passes a check.
@@ -30,9 +30,6 @@ pub mod sonar;
 pub mod spectrum;
 pub mod subband;
 pub mod vmath;
-
-#[cfg(feature = "python")]
-mod bindings;
 
 pub use error::{Error, Result};
 

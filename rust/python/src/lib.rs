@@ -1,14 +1,14 @@
 //! The Python extension `batecho._core`: conversion between NumPy arrays and the pure-Rust
 //! core, and nothing else. Heavy work runs with the GIL released.
 
-use crate::absorption::Atmosphere;
-use crate::beam::GaussianBeam;
-use crate::error::Error;
-use crate::lobe::{self, Search};
-use crate::pose::{Pose, V3};
-use crate::scene::Scene;
-use crate::simulate;
-use crate::sonar::{LeafModel, LobeRule, Sonar, SonarParams, TooClose, Window};
+use batecho::absorption::Atmosphere;
+use batecho::beam::GaussianBeam;
+use batecho::error::Error;
+use batecho::lobe::{self, Search};
+use batecho::pose::{Pose, V3};
+use batecho::scene::Scene;
+use batecho::simulate;
+use batecho::sonar::{LeafModel, LobeRule, Sonar, SonarParams, TooClose, Window};
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
@@ -266,9 +266,10 @@ type SimOut<'py> = (
 );
 
 /// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`.
-/// `method` is "exact", "fast" or "auto" (the last two use `tol`).
+/// `method` is "exact", "fast" or "auto" (the last two use `tol`); both are required, so that
+/// the defaults live in one place (`batecho.simulate`).
 #[pyfunction(name = "simulate")]
-#[pyo3(signature = (scene, sonar, positions, forward, up, left, impulse=true, search="bvh", method="exact", tol=1e-12))]
+#[pyo3(signature = (scene, sonar, positions, forward, up, left, impulse, search, method, tol))]
 #[allow(clippy::too_many_arguments)]
 fn simulate_py<'py>(
     py: Python<'py>,
@@ -376,7 +377,7 @@ fn load_obj<'py>(
     scale: f64,
     transform: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
-    use crate::obj::{ObjOptions, Per, Up};
+    use batecho::obj::{ObjOptions, Per, Up};
     let err = |m: String| PyValueError::new_err(m);
     let per = match per {
         "patch" => Per::Patch,
@@ -418,7 +419,7 @@ fn load_obj<'py>(
         opts.leaf_patterns = p;
     }
     let mesh = py
-        .detach(move || crate::obj::load_obj(&path, &opts))
+        .detach(move || batecho::obj::load_obj(&path, &opts))
         .map_err(to_py)?;
     let rows = |v: Vec<V3>| -> PyResult<Bound<'py, PyAny>> {
         let n = v.len();
