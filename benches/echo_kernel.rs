@@ -7,12 +7,12 @@
 
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
 use batecho::lobe::{members, Search};
-use batecho::pose::Pose;
-use batecho::pulse::{candidates, fast_pulse};
+use batecho::physics::pose::Pose;
+use batecho::fast::pulse::{candidates, fast_pulse};
 use batecho::scene::Scene;
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
-use batecho::spectrum::{leaf_term, sum_terms, LeafTerm};
+use batecho::echo::spectrum::{leaf_term, sum_terms, LeafTerm};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 

@@ -7,29 +7,15 @@
 // `!(x <= y)` is used on purpose throughout: it is true for NaN, so NaN never passes a check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod absorption;
-pub mod aligned;
-pub mod beam;
-pub mod candidates;
-pub mod erf_table;
+pub mod echo;
 pub mod error;
 pub mod fast;
-pub mod impulse;
-pub mod kernel;
-pub mod leaf_model;
 pub mod lobe;
-pub mod nufft;
-pub mod obj;
-pub mod phase;
-pub mod pose;
-mod prefetch;
-pub mod pulse;
+pub mod math;
+pub mod physics;
 pub mod scene;
 pub mod simulate;
 pub mod sonar;
-pub mod spectrum;
-pub mod subband;
-pub mod vmath;
 
 pub use error::{Error, Result};
 

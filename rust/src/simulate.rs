@@ -3,13 +3,13 @@
 
 use crate::error::{invalid, Result};
 use crate::fast::{fast_band_spectrum, FastPlan};
-use crate::impulse::impulse_from_band;
+use crate::echo::impulse::impulse_from_band;
 use crate::lobe::{farthest_member_range, members_of, Search};
-use crate::pose::Pose;
-use crate::pulse::{candidates, fast_pulse};
+use crate::physics::pose::Pose;
+use crate::fast::pulse::{candidates, fast_pulse};
 use crate::scene::Scene;
 use crate::sonar::Sonar;
-use crate::spectrum::band_spectrum;
+use crate::echo::spectrum::band_spectrum;
 use rayon::prelude::*;
 
 /// Echoes of `p` poses: spectra `(p, M)` as separate real and imaginary parts, impulses

@@ -1,11 +1,11 @@
 //! The Python extension `batecho._core`: conversion between NumPy arrays and the pure-Rust
 //! core, and nothing else. Heavy work runs with the GIL released.
 
-use batecho::absorption::Atmosphere;
-use batecho::beam::GaussianBeam;
+use batecho::physics::absorption::Atmosphere;
+use batecho::physics::beam::GaussianBeam;
 use batecho::error::Error;
 use batecho::lobe::{self, Search};
-use batecho::pose::{Pose, V3};
+use batecho::physics::pose::{Pose, V3};
 use batecho::scene::Scene;
 use batecho::simulate;
 use batecho::sonar::{LeafModel, LobeRule, Sonar, SonarParams, TooClose, Window};
@@ -377,7 +377,7 @@ fn load_obj<'py>(
     scale: f64,
     transform: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
-    use batecho::obj::{ObjOptions, Per, Up};
+    use batecho::scene::obj::{ObjOptions, Per, Up};
     let err = |m: String| PyValueError::new_err(m);
     let per = match per {
         "patch" => Per::Patch,
@@ -419,7 +419,7 @@ fn load_obj<'py>(
         opts.leaf_patterns = p;
     }
     let mesh = py
-        .detach(move || batecho::obj::load_obj(&path, &opts))
+        .detach(move || batecho::scene::obj::load_obj(&path, &opts))
         .map_err(to_py)?;
     let rows = |v: Vec<V3>| -> PyResult<Bound<'py, PyAny>> {
         let n = v.len();

@@ -4,7 +4,7 @@
 //! A leaf's term at bin k is `F(k) exp(-j 2 pi f_k 2r/v)`, with the smooth leaf factor
 //! `F = g G L(c, beta) exp(-j psi(c, beta)) / (k r^2)` (times absorption). The round-trip
 //! phase advances by a complex recurrence, re-anchored from the exactly reduced phase
-//! ([`crate::phase`]) every [`ANCHOR_BINS`] bins.
+//! ([`crate::physics::phase`]) every [`ANCHOR_BINS`] bins.
 //!
 //! Paper model, smooth path (the default): `F` is analytic in k, its nearest singularity at
 //! k = 0 far from the band, so on each block of [`POLY_BLOCK`] bins it is interpolated by a
@@ -15,7 +15,7 @@
 //! blocks past the kink are skipped (`L = 0`), and the block holding the kink interpolates the
 //! smooth extension `g` (the cosine unclamped) and zeroes the bins where `B(c) beta >= pi/2`.
 //! Pointwise path: the model evaluated at every bin with polynomial elementary functions
-//! accurate to ~1e-16 ([`crate::vmath`]).
+//! accurate to ~1e-16 ([`crate::math::vmath`]).
 //! Both are branch-free blocks of [`LANES`] bins, vectorised by the compiler and dispatched at
 //! run time to AVX-512 or AVX2+FMA code (`multiversion`); the portable build stays x86-64
 //! baseline.
@@ -24,11 +24,14 @@
 //! leaves [0, pi]. `mul_add` is used throughout; on CPUs without FMA it is the correctly
 //! rounded libm `fma`, so every CPU gets the same bits.
 
-use crate::leaf_model::{self, *};
-use crate::phase::CyclesPerBin;
+pub mod impulse;
+pub mod spectrum;
+
+use crate::physics::leaf::{self, *};
+use crate::physics::phase::CyclesPerBin;
 use crate::sonar::{LeafModel, Sonar};
-use crate::spectrum::LeafTerm;
-use crate::vmath::{
+use crate::echo::spectrum::LeafTerm;
+use crate::math::vmath::{
     cos_0_pi, erf_in, erf_interval, exp_nonpos, j1_hankel, j1_interval, jinc_small, sincos_unit,
     J1_EDGES,
 };
@@ -309,7 +312,7 @@ const PO_SUB_BLOCK: usize = 32;
 #[inline(always)]
 fn po_extension(t: &LeafTerm, k: f64, atten: f64) -> f64 {
     let c = k * t.radius;
-    let g = t.amp * (c * c / 2.0) * t.cos_beta * leaf_model::jinc(2.0 * c * t.sin_beta) / k;
+    let g = t.amp * (c * c / 2.0) * t.cos_beta * leaf::jinc(2.0 * c * t.sin_beta) / k;
     if atten == 0.0 {
         g
     } else {
@@ -532,8 +535,8 @@ pub fn add_leaf_scalar(
     im: &mut [f64],
 ) {
     let model = |c: f64| match sonar.params.leaf_model {
-        LeafModel::Paper => leaf_model::paper(c, t.beta),
-        LeafModel::PhysicalOptics => leaf_model::physical_optics(c, t.cos_beta, t.sin_beta),
+        LeafModel::Paper => leaf::paper(c, t.beta),
+        LeafModel::PhysicalOptics => leaf::physical_optics(c, t.cos_beta, t.sin_beta),
     };
     let tab = &sonar.tables;
     for j in 0..tab.m {
@@ -1008,7 +1011,7 @@ fn paper_blocks<const ATTEN: bool>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::absorption::Atmosphere;
+    use crate::physics::absorption::Atmosphere;
     use crate::sonar::Sonar;
     use crate::test_util::sonar_with;
 

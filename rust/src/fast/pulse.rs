@@ -13,20 +13,20 @@
 //! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
 //! test ([`crate::lobe::classify_candidates`]).
 
-use crate::candidates::Candidates;
+use crate::lobe::candidates::Candidates;
 use crate::error::{Error, Result};
 use crate::fast::{
     beside_leftovers, choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch,
     paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
-use crate::kernel::{paper_regime, paper_regime_of};
+use crate::echo::{paper_regime, paper_regime_of};
 use crate::lobe::{bvh_candidates, classify_candidates, classify_member, BlockView, Search};
-use crate::pose::Pose;
+use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar, TooClose};
-use crate::spectrum::{leaf_amp, leaf_term, LeafTerm};
-use crate::subband::KinkedLeaf;
+use crate::echo::spectrum::{leaf_amp, leaf_term, LeafTerm};
+use crate::fast::subband::KinkedLeaf;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -332,7 +332,7 @@ pub fn fast_pulse(
 mod tests {
     use super::*;
     use crate::sonar::{LobeRule, SonarParams};
-    use crate::spectrum::band_spectrum;
+    use crate::echo::spectrum::band_spectrum;
     use crate::test_util::rel_l2;
 
     /// `n` leaves in a box in front of the origin: radii 0.5 mm - 5 cm, random normals.
@@ -407,7 +407,7 @@ mod tests {
             };
             let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
             let e = [x[0] / r, x[1] / r, x[2] / r];
-            let t = crate::pose::cross(e, [0.0, 0.0, 1.0]);
+            let t = crate::physics::pose::cross(e, [0.0, 0.0, 1.0]);
             let tn = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
             let (cb, sb) = (1.541f64.cos(), 1.541f64.sin());
             nv.push([0, 1, 2].map(|i| cb * e[i] + sb * t[i] / tn));
@@ -423,8 +423,8 @@ mod tests {
         let mem = crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).unwrap();
         assert_eq!(mem.len(), 35_000);
         let kinked = mem.iter().filter(|m| {
-            let t = crate::spectrum::leaf_term(&s, &sc, m);
-            paper_regime(&s.tables, &t) == crate::kernel::PaperRegime::Kinked
+            let t = crate::echo::spectrum::leaf_term(&s, &sc, m);
+            paper_regime(&s.tables, &t) == crate::echo::PaperRegime::Kinked
         });
         assert_eq!(kinked.count(), mem.len());
         let (er, ei) = band_spectrum(&s, &sc, &mem);

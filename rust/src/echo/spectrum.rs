@@ -5,8 +5,8 @@
 //! partial sums are added in chunk order. The grouping depends only on the member list, never
 //! on the number of threads, so results are bit-identical for any `RAYON_NUM_THREADS`.
 
-use crate::aligned::Aligned;
-use crate::kernel;
+use crate::math::aligned::Aligned;
+
 use crate::lobe::Member;
 use crate::scene::Scene;
 use crate::sonar::Sonar;
@@ -45,8 +45,8 @@ impl LeafTerm {
             cos_beta: beta.cos(),
             sin_beta: beta.sin(),
             radius,
-            radius_pow_b: radius.powf(crate::leaf_model::PAPER_BP),
-            radius_pow_p: radius.powf(crate::leaf_model::PAPER_PP),
+            radius_pow_b: radius.powf(crate::physics::leaf::PAPER_BP),
+            radius_pow_p: radius.powf(crate::physics::leaf::PAPER_PP),
         }
     }
 }
@@ -82,7 +82,7 @@ pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
 /// Sum a chunk of leaves into `re`, `im` (length M, zeroed by the caller).
 fn chunk_sum(sonar: &Sonar, terms: &[LeafTerm], re: &mut [f64], im: &mut [f64]) {
     for t in terms {
-        kernel::add_leaf(sonar, t, re, im);
+        crate::echo::add_leaf(sonar, t, re, im);
     }
 }
 
@@ -109,7 +109,7 @@ pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
 pub fn sum_terms_unwindowed(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let m_pad = sonar.tables.m_pad;
-    // (accumulators on cache lines: see `crate::aligned`)
+    // (accumulators on cache lines: see `crate::math::aligned`)
     let (mut re, mut im) = (Aligned::zeros(m_pad), Aligned::zeros(m_pad));
     if terms.len() <= LEAF_CHUNK {
         chunk_sum(sonar, terms, &mut re, &mut im);

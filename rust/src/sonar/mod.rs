@@ -1,10 +1,10 @@
 //! Sonar parameters (MODEL.md sections 2-5) and the quantities derived from them once:
 //! the band bins and their tables, the detection constant, the range limit.
 
-use crate::absorption::Atmosphere;
-use crate::beam::GaussianBeam;
+use crate::physics::absorption::Atmosphere;
+use crate::physics::beam::GaussianBeam;
 use crate::error::{invalid, Result};
-use crate::kernel::BandTables;
+use crate::echo::BandTables;
 use std::f64::consts::PI;
 
 /// Which leaves count (MODEL.md section 3).
@@ -143,8 +143,8 @@ pub struct Sonar {
     pub tables: BandTables,
     /// Fast-path plans by tolerance (built on first use).
     pub fast_plans: crate::fast::PlanCache,
-    /// The band's sub-bands for kinked leaves (built on first use; see [`crate::subband`]).
-    sub_bands: std::sync::OnceLock<Option<std::sync::Arc<crate::subband::SubBands>>>,
+    /// The band's sub-bands for kinked leaves (built on first use; see [`crate::fast::subband`]).
+    sub_bands: std::sync::OnceLock<Option<std::sync::Arc<crate::fast::subband::SubBands>>>,
 }
 
 impl Sonar {
@@ -314,12 +314,12 @@ impl Sonar {
     }
 
     /// The band's sub-bands for kinked leaves; None where the band is too narrow for them.
-    pub fn sub_bands(&self) -> Option<std::sync::Arc<crate::subband::SubBands>> {
+    pub fn sub_bands(&self) -> Option<std::sync::Arc<crate::fast::subband::SubBands>> {
         self.sub_bands
             .get_or_init(|| {
                 // (a sub-band of a valid sonar is valid; were one not, the full-band passes
                 // stand in)
-                crate::subband::SubBands::new(self)
+                crate::fast::subband::SubBands::new(self)
                     .ok()
                     .flatten()
                     .map(std::sync::Arc::new)

@@ -14,7 +14,7 @@
 //! (a `g` of an earlier object does not carry over), a material carries over as in OBJ.
 
 use crate::error::{Error, Result};
-use crate::pose::{cross, dot, norm, sub, V3};
+use crate::physics::pose::{cross, dot, norm, sub, V3};
 use std::cell::RefCell;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};

@@ -23,27 +23,31 @@
 //! the factor's zero side is the shorter, `g` goes through the NUFFT like any leaf and its
 //! interpolant is subtracted, bin by bin, on the zero side; when the live side is the
 //! shorter, the interpolant is added there instead. See [`paper_batch`]. Kinked leaves that
-//! fail a first pass's check go to sub-bands ([`crate::subband`]), where they need far fewer
+//! fail a first pass's check go to sub-bands ([`crate::fast::subband`]), where they need far fewer
 //! nodes: in the first pass's own tasks where it has few ([`KINKED_IN_TASKS_UP_TO`]), else in
 //! a later pass ([`leftover_pass`]).
 
+pub mod nufft;
+pub mod pulse;
+pub mod subband;
+
 use crate::error::{invalid, Result};
-use crate::kernel::{
+use crate::echo::{
     cis_neg, first_live_bin, paper_regime, paper_regime_bits, NodeTables, PaperRegime, LANES,
     REGIME_KINKED, REGIME_ZERO,
 };
-use crate::leaf_model;
-use crate::leaf_model::{
+use crate::physics::leaf;
+use crate::physics::leaf::{
     PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1, PAPER_BETA_REF, PAPER_P0, PAPER_P1, PAPER_PSI0,
 };
 use crate::lobe::Member;
-use crate::nufft::{Type1Plan, MAX_W};
-use crate::phase::CyclesPerBin;
+use crate::fast::nufft::{Type1Plan, MAX_W};
+use crate::physics::phase::CyclesPerBin;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, Sonar};
-use crate::spectrum::{leaf_term, sum_terms, LeafTerm};
-use crate::subband::{KinkPass, KinkedLeaf, KinkedShare};
-use crate::vmath::{
+use crate::echo::spectrum::{leaf_term, sum_terms, LeafTerm};
+use crate::fast::subband::{KinkPass, KinkedLeaf, KinkedShare};
+use crate::math::vmath::{
     cis_neg_cycles, cos_0_pi_k, erf_cheb_lanes, erf_exp_cheb_lanes, exp_nonpos_d, sincos_unit_k,
 };
 use multiversion::multiversion;
@@ -335,7 +339,7 @@ fn po_node_values(
     }
     for q in 0..p {
         let k = nt.k[q];
-        let (l, psi) = leaf_model::physical_optics(k * t.radius, t.cos_beta, t.sin_beta);
+        let (l, psi) = leaf::physical_optics(k * t.radius, t.cos_beta, t.sin_beta);
         let mut amp = t.amp * l * plan.node_scale[q];
         if !nt.atten.is_empty() {
             amp *= (-nt.atten[q] * t.range).exp();
@@ -573,7 +577,7 @@ fn spread_lanes_ws<const WS: usize, const WS2: usize, const MIRROR: bool>(
     }
 }
 
-/// From this tolerance up, node values use the short series of [`crate::vmath`] (errors
+/// From this tolerance up, node values use the short series of [`crate::math::vmath`] (errors
 /// below 1e-12, far under the `tol / 5` budget) instead of the full ones (~1e-16).
 pub const SHORT_SERIES_TOL: f64 = 1e-9;
 /// From this tolerance up, node values use the shortest series: relative errors below 1e-8
@@ -813,7 +817,7 @@ pub(crate) struct PaperLanes {
     pub(crate) aq: [f64; LB],
     pub(crate) kink: [usize; LB],
     /// A lower bound of the leaf's peak over the whole band, for the smoothness check (0 when
-    /// only this band is known; see [`crate::subband`]).
+    /// only this band is known; see [`crate::fast::subband`]).
     pub(crate) floor: [f64; LB],
     /// Lanes that add nothing (outside the lobe, or `L = 0` at every bin), in a batch only to
     /// keep a block of candidates whole: computed, never spread, never deferred.
@@ -1246,7 +1250,7 @@ impl Direct {
         if terms.is_empty() {
             return;
         }
-        let (re, im) = crate::spectrum::sum_terms_unwindowed(sonar, terms);
+        let (re, im) = crate::echo::spectrum::sum_terms_unwindowed(sonar, terms);
         for (a, b) in self.re.iter_mut().zip(&re) {
             *a += b;
         }
@@ -1504,7 +1508,7 @@ fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f6
                 // A block is a batch as it stands where it can be (`ready_whole`); otherwise
                 // each leaf goes its route.
                 let base = b * LB;
-                crate::prefetch::ahead::<_, LB>(terms, base + TERMS_AHEAD);
+                crate::math::prefetch::ahead::<_, LB>(terms, base + TERMS_AHEAD);
                 if let Ok(block) = <&[LeafTerm; LB]>::try_from(block) {
                     let mut bl = {
                         #[cfg(target_arch = "x86_64")]
@@ -1587,7 +1591,7 @@ pub(crate) fn second_pass(
 const SECOND_PASS_MIN: usize = 256;
 
 /// The leaves a first fast pass left, as a windowed band spectrum (None for none): of its
-/// failures, the kinked paper-model ones (`kinked`) by sub-bands ([`crate::subband`], where
+/// failures, the kinked paper-model ones (`kinked`) by sub-bands ([`crate::fast::subband`], where
 /// the band has them) and the others (`retry`) by a second pass at the plan's full node count;
 /// the exact-routed leaves (`exact`: outside the model's domain, or below a kinked leaf's
 /// rounding floor) by the exact sum. The three run side by side and are added in that order.
@@ -2060,8 +2064,8 @@ fn lagrange_sum(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::absorption::Atmosphere;
-    use crate::spectrum::sum_terms;
+    use crate::physics::absorption::Atmosphere;
+    use crate::echo::spectrum::sum_terms;
     use crate::test_util::{rel_l2_pair as rel_l2, sonar_with};
 
     fn sonar(atm: Option<Atmosphere>, model: LeafModel) -> Sonar {
@@ -2269,7 +2273,7 @@ mod tests {
         let s = sonar(None, LeafModel::Paper);
         let (tab, m) = (&s.tables, s.n_bins());
         for &radius in &[0.003f64, 0.0045, 0.0056, 0.008] {
-            let ap = radius.powf(crate::leaf_model::PAPER_BP);
+            let ap = radius.powf(crate::physics::leaf::PAPER_BP);
             for live in [2usize, 5, 8, 20, 26, 64, 100] {
                 let j = m - live;
                 let beta = std::f64::consts::FRAC_PI_2 / PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0)

@@ -2,7 +2,7 @@
 //! block of lanes vectorises (no calls, no branches on data). Each holds on a stated domain
 //! to about 1e-16 absolute error; tests compare them with libm.
 
-use crate::erf_table::{ERFCX_CHEB, ERF_DEGREE, ERF_INTERVALS, ERF_TAYLOR, ERF_WIDTH};
+use crate::math::erf_table::{ERFCX_CHEB, ERF_DEGREE, ERF_INTERVALS, ERF_TAYLOR, ERF_WIDTH};
 
 const PIO2_HI: f64 = std::f64::consts::FRAC_PI_2; // pi/2 rounded to f64
 const PIO2_LO: f64 = 6.123_233_995_736_766e-17; // pi/2 - PIO2_HI

@@ -31,7 +31,7 @@ use crate::fast::{
     K_FACTOR_TOL,
 };
 use crate::sonar::{LeafModel, Sonar, Window};
-use crate::spectrum::LeafTerm;
+use crate::echo::spectrum::LeafTerm;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -308,7 +308,7 @@ fn band_sum(
 /// small values). Channels carry `k F` below [`K_FACTOR_TOL`], `F` above.
 #[inline(always)]
 fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
-    use crate::leaf_model::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};
+    use crate::physics::leaf::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};
     let j = sonar.n_bins() - 1;
     let k = sonar.wavenumbers[j];
     let c = k * t.radius;
@@ -329,9 +329,9 @@ fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::absorption::Atmosphere;
-    use crate::kernel::{paper_regime, PaperRegime};
-    use crate::spectrum::sum_terms;
+    use crate::physics::absorption::Atmosphere;
+    use crate::echo::{paper_regime, PaperRegime};
+    use crate::echo::spectrum::sum_terms;
     use crate::test_util::{rel_l2_pair as rel_l2, sonar_with, uniforms};
 
     fn sonar(atm: Option<Atmosphere>, window: Window) -> Sonar {

@@ -1,9 +1,11 @@
 //! Leaves as disks (centre, unit normal, radius) and the obvhs BVH over their centres, built
 //! once and reused for every pose.
 
+pub mod obj;
+
 use crate::error::{invalid, Result};
-use crate::leaf_model::{PAPER_BP, PAPER_PP};
-use crate::pose::{dot, V3};
+use crate::physics::leaf::{PAPER_BP, PAPER_PP};
+use crate::physics::pose::{dot, V3};
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;

@@ -10,7 +10,7 @@
 //! once and shared by all channels.
 
 use crate::error::{invalid, Result};
-use crate::vmath::exp_nonpos;
+use crate::math::vmath::exp_nonpos;
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use std::f64::consts::PI;

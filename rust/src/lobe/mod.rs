@@ -3,12 +3,14 @@
 //! that provably hold no counting leaf. The index never changes the answer: every candidate
 //! goes through the same exact test as the brute-force scan.
 
-use crate::candidates::Candidates;
+pub mod candidates;
+
+use crate::lobe::candidates::Candidates;
 use crate::error::{Error, Result};
-use crate::pose::{cross, dot, norm, sub, Pose, V3};
+use crate::physics::pose::{cross, dot, norm, sub, Pose, V3};
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, LobeRule, Sonar, TooClose};
-use crate::vmath::{atan2_fast, atan2_from_ratio, atan2_ratio, exp_nonpos};
+use crate::math::vmath::{atan2_fast, atan2_from_ratio, atan2_ratio, exp_nonpos};
 use multiversion::multiversion;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -169,7 +171,7 @@ impl AngularBound {
 /// cheap angular pre-test (see [`AngularBound`]). Its `atan2` is [`atan2_fast`] (within ~4e-16
 /// of libm's, far inside [`SLACK`]; with FMA, from the dispatch below, it costs a fraction of
 /// libm's, which took ~12 % of a 10-degree lobe query). The polynomial `cos` and `exp` of
-/// [`crate::vmath`], built for vector lanes, measured slower here than libm's, one at a time.
+/// [`crate::math::vmath`], built for vector lanes, measured slower here than libm's, one at a time.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 pub fn test_box(
     sonar: &Sonar,
@@ -247,7 +249,7 @@ pub fn test_box(
                 ((rad / dist + SLACK) / cos_elc).min(1.0).asin() + SLACK
             };
             // Largest and smallest one-way gain over the cap's (az, el) rectangle.
-            let gain_range = |b: &crate::beam::GaussianBeam| -> (f64, f64) {
+            let gain_range = |b: &crate::physics::beam::GaussianBeam| -> (f64, f64) {
                 let (ivs, n) = daz_intervals(azc, h, b.az0);
                 let (mut qmin, mut qmax) = (f64::INFINITY, 0.0f64);
                 for &(a0, a1) in &ivs[..n] {
@@ -510,7 +512,7 @@ impl BlockView {
 /// The vector part of the exact test for up to [`CB`] candidates `(index, range)` already
 /// within `[min_range, range_limit]`. The range is [`classify`]'s; azimuth, elevation, gain
 /// and incidence come from the unnormalised offset with the polynomial `atan2` and `exp` of
-/// [`crate::vmath`] (angles within ~6e-16 of libm's, gains ~1e-14 relative; physical optics'
+/// [`crate::math::vmath`] (angles within ~6e-16 of libm's, gains ~1e-14 relative; physical optics'
 /// cos and sin of the incidence exactly as [`incidence`] forms them). A lane whose range lies
 /// within [`AMBIGUOUS`] of its detectable reach, or whose direction lies within
 /// [`CONE_AMBIGUOUS`] of the cone's edge, is marked for [`classify`] (libm), so that every
@@ -578,7 +580,7 @@ pub(crate) fn classify_candidates(
         let first = cands[0] as usize;
         let (c, nv) = (&scene.centers, &scene.normals);
         for v in [&c.x, &c.y, &c.z, &nv.x, &nv.y, &nv.z] {
-            crate::prefetch::ahead::<_, CB>(v, first + PREFETCH_AHEAD);
+            crate::math::prefetch::ahead::<_, CB>(v, first + PREFETCH_AHEAD);
         }
         let run = |v: &Vec<f64>| -> [f64; CB] {
             v[first..first + CB].try_into().expect("a run of CB leaves")
@@ -718,7 +720,7 @@ fn classify_lanes_into(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize, v: &m
         v.cos_beta[k] = (cb[k].abs() * to_unit).min(1.0);
         v.sin_beta[k] = (sb[k] * to_unit).min(1.0);
     }
-    let quad_lanes = |b: &crate::beam::GaussianBeam, q: &mut [f64; CB]| {
+    let quad_lanes = |b: &crate::physics::beam::GaussianBeam, q: &mut [f64; CB]| {
         for k in 0..CB {
             q[k] = b.quad(b.delta_az(az[k]), el[k] - b.el0);
         }
@@ -882,7 +884,7 @@ pub fn members(
         sonar,
         pose,
         pose_index,
-        crate::pulse::candidates(scene, sonar, pose, search).to_vec(),
+        crate::fast::pulse::candidates(scene, sonar, pose, search).to_vec(),
     )
 }
 
@@ -939,7 +941,7 @@ pub fn farthest_member_range(
     search: Search,
 ) -> Result<f64> {
     let sp = &sonar.params;
-    let ids = crate::pulse::candidates(scene, sonar, pose, search).to_vec();
+    let ids = crate::fast::pulse::candidates(scene, sonar, pose, search).to_vec();
     let ranges: Vec<f64> = ids
         .par_iter()
         .with_min_len(CLASSIFY_CHUNK)
@@ -993,7 +995,7 @@ fn farthest_of(members: &[Member]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::beam::GaussianBeam;
+    use crate::physics::beam::GaussianBeam;
     use crate::sonar::SonarParams;
 
     /// Detectable and cone lobes, the paper model and physical optics, and an elliptical,

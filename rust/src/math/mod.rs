@@ -1,0 +1,7 @@
+//! Numerics with no physics in them: vectorisable elementary functions and their tables,
+//! cache-line-aligned arrays, prefetch hints.
+
+pub mod aligned;
+pub mod erf_table;
+pub(crate) mod prefetch;
+pub mod vmath;

@@ -1,0 +1,8 @@
+//! The echo model's physics (MODEL.md sections 2-6), scalar and exact: poses, the beampattern,
+//! leaf scattering, the round-trip phase, atmospheric absorption.
+
+pub mod absorption;
+pub mod beam;
+pub mod leaf;
+pub mod phase;
+pub mod pose;
