@@ -6,9 +6,10 @@
 //! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order.
 
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
-use batecho::lobe::{members, Search};
+use batecho::lobe::{candidates, members, Search};
 use batecho::physics::pose::Pose;
-use batecho::fast::pulse::{candidates, fast_pulse};
+use batecho::fast::pulse::fast_pulse;
+use batecho::fast::FastSonar;
 use batecho::scene::Scene;
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
@@ -31,8 +32,10 @@ impl Rng {
     }
 }
 
-fn sonar(beamwidth_deg: f64) -> Sonar {
-    Sonar::new(SonarParams::with_beamwidth(beamwidth_deg.to_radians()).unwrap()).unwrap()
+fn sonar(beamwidth_deg: f64) -> FastSonar {
+    FastSonar::new(
+        Sonar::new(SonarParams::with_beamwidth(beamwidth_deg.to_radians()).unwrap()).unwrap(),
+    )
 }
 
 fn terms(n: usize, rng: &mut Rng) -> Vec<LeafTerm> {
@@ -161,7 +164,7 @@ fn bench_pulse(c: &mut Criterion) {
     p.lobe = LobeRule::Cone {
         half_angle: 75f64.to_radians(),
     };
-    let s = Sonar::new(p).unwrap();
+    let s = FastSonar::new(Sonar::new(p).unwrap());
     let plan = FastPlan::new(&s, 1e-6).unwrap();
     let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
     let mut g = c.benchmark_group("pulse_fast_tol1e-6");

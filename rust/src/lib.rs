@@ -35,10 +35,19 @@ pub(crate) mod test_util {
     /// A sonar with a 30 degree beam and the defaults, as `edit` changes them.
     pub(crate) fn sonar_with(
         edit: impl FnOnce(&mut crate::sonar::SonarParams),
-    ) -> crate::sonar::Sonar {
+    ) -> crate::fast::FastSonar {
         let mut p = crate::sonar::SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
         edit(&mut p);
-        crate::sonar::Sonar::new(p).unwrap()
+        crate::fast::FastSonar::new(crate::sonar::Sonar::new(p).unwrap())
+    }
+
+    /// [`sonar_with`] with the exact kernel's tables only.
+    pub(crate) fn prepared_with(
+        edit: impl FnOnce(&mut crate::sonar::SonarParams),
+    ) -> crate::echo::Prepared {
+        let mut p = crate::sonar::SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        edit(&mut p);
+        crate::echo::Prepared::new(crate::sonar::Sonar::new(p).unwrap())
     }
 
     /// Relative L2 distance of the spectrum `a` from `b` (real and imaginary parts).

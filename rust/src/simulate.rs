@@ -4,10 +4,11 @@
 use crate::error::{invalid, Result};
 use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::echo::impulse::impulse_from_band;
-use crate::lobe::{farthest_member_range, members_of, Search};
+use crate::lobe::{candidates, farthest_member_range, members_of, Search};
 use crate::physics::pose::Pose;
-use crate::fast::pulse::{candidates, fast_pulse};
+use crate::fast::pulse::fast_pulse;
 use crate::scene::Scene;
+use crate::fast::FastSonar;
 use crate::sonar::Sonar;
 use crate::echo::spectrum::band_spectrum;
 use rayon::prelude::*;
@@ -92,7 +93,7 @@ pub fn cost_fast(n: usize, m: usize, plan: &FastPlan) -> f64 {
 /// Echoes of every pose by `method`, poses in parallel.
 pub fn simulate(
     scene: &Scene,
-    sonar: &Sonar,
+    sonar: &FastSonar,
     poses: &[Pose],
     with_impulse: bool,
     search: Search,
@@ -107,13 +108,13 @@ pub fn simulate(
     check_leaf_sizes(scene, sonar)?;
     let plan = match method {
         Method::Exact => None,
-        Method::Fast { tol } => Some(sonar.fast_plans.get(sonar, tol)?),
+        Method::Fast { tol } => Some(sonar.plans.get(sonar, tol)?),
         Method::Auto { tol } => {
             if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
                 return invalid(format!("tol must be in (0, 1), got {tol:e}"));
             }
             if tol >= crate::fast::MIN_TOL {
-                Some(sonar.fast_plans.get(sonar, tol)?)
+                Some(sonar.plans.get(sonar, tol)?)
             } else {
                 None
             }

@@ -4,6 +4,7 @@
 use batecho::physics::absorption::Atmosphere;
 use batecho::physics::beam::GaussianBeam;
 use batecho::error::Error;
+use batecho::fast::FastSonar;
 use batecho::lobe::{self, Search};
 use batecho::physics::pose::{Pose, V3};
 use batecho::scene::Scene;
@@ -81,7 +82,8 @@ fn beam_from(spec: (f64, f64, f64, f64, f64, f64)) -> Result<GaussianBeam, Error
 /// A validated sonar with its derived tables. Angles in radians; see `batecho.Sonar`.
 #[pyclass(name = "Sonar", module = "batecho._core", frozen)]
 struct PySonar {
-    inner: Arc<Sonar>,
+    /// The parameters (`inner.sonar`) with every kernel's cache.
+    inner: Arc<FastSonar>,
 }
 
 #[pymethods]
@@ -186,7 +188,7 @@ impl PySonar {
             min_ka,
         };
         Ok(PySonar {
-            inner: Arc::new(Sonar::new(params).map_err(to_py)?),
+            inner: Arc::new(FastSonar::new(Sonar::new(params).map_err(to_py)?)),
         })
     }
 

@@ -25,11 +25,13 @@
 //! rounded libm `fma`, so every CPU gets the same bits.
 
 pub mod impulse;
+pub mod prepared;
 pub mod spectrum;
 
 use crate::physics::leaf::{self, *};
 use crate::physics::phase::CyclesPerBin;
-use crate::sonar::{LeafModel, Sonar};
+use crate::sonar::LeafModel;
+pub use prepared::Prepared;
 use crate::echo::spectrum::LeafTerm;
 use crate::math::vmath::{
     cos_0_pi, erf_in, erf_interval, exp_nonpos, j1_hankel, j1_interval, jinc_small, sincos_unit,
@@ -266,7 +268,7 @@ fn cmul(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
 }
 
 /// Add one leaf's unwindowed contribution to `re`, `im` (length `m_pad`).
-pub fn add_leaf(sonar: &Sonar, t: &LeafTerm, re: &mut [f64], im: &mut [f64]) {
+pub fn add_leaf(sonar: &Prepared, t: &LeafTerm, re: &mut [f64], im: &mut [f64]) {
     let tab = &sonar.tables;
     debug_assert!(re.len() == tab.m_pad && im.len() == tab.m_pad);
     let p = &sonar.params;
@@ -528,7 +530,7 @@ fn po_blocks<const ATTEN: bool>(
 
 /// The straightforward per-bin evaluation with libm (any leaf model, any size).
 pub fn add_leaf_scalar(
-    sonar: &Sonar,
+    sonar: &Prepared,
     t: &LeafTerm,
     q: &CyclesPerBin,
     re: &mut [f64],
@@ -1012,10 +1014,9 @@ fn paper_blocks<const ATTEN: bool>(
 mod tests {
     use super::*;
     use crate::physics::absorption::Atmosphere;
-    use crate::sonar::Sonar;
-    use crate::test_util::sonar_with;
+        use crate::test_util::prepared_with as sonar_with;
 
-    fn sonar(atmosphere: Option<Atmosphere>, min_ka: f64) -> Sonar {
+    fn sonar(atmosphere: Option<Atmosphere>, min_ka: f64) -> Prepared {
         sonar_with(|p| {
             p.atmosphere = atmosphere;
             p.min_ka = min_ka;
@@ -1023,7 +1024,7 @@ mod tests {
     }
 
     /// Spectra of one leaf by each path: (smooth, pointwise, scalar libm).
-    fn paths(s: &Sonar, t: &LeafTerm) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    fn paths(s: &Prepared, t: &LeafTerm) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let tab = &s.tables;
         let q = CyclesPerBin::new(
             t.range,
@@ -1103,7 +1104,7 @@ mod tests {
         LeafTerm::new(amp, range, beta, radius)
     }
 
-    fn kink_free(s: &Sonar, t: &LeafTerm) -> bool {
+    fn kink_free(s: &Prepared, t: &LeafTerm) -> bool {
         (PAPER_B1 * (s.tables.kp[0] * t.radius.powf(PAPER_BP)) + PAPER_B0) * t.beta < FRAC_PI_2
     }
 
@@ -1184,7 +1185,7 @@ mod tests {
         }
     }
 
-    fn first_live_bin_matches_the_predicate(s: &Sonar) {
+    fn first_live_bin_matches_the_predicate(s: &Prepared) {
         let tab = &s.tables;
         let x = |ap: f64, beta: f64, j: usize| PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0) * beta;
         let mut u = crate::test_util::uniforms(11);

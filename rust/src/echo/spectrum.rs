@@ -9,6 +9,7 @@ use crate::math::aligned::Aligned;
 
 use crate::lobe::Member;
 use crate::scene::Scene;
+use crate::echo::Prepared;
 use crate::sonar::Sonar;
 use rayon::prelude::*;
 
@@ -80,14 +81,14 @@ pub fn leaf_term(sonar: &Sonar, scene: &Scene, m: &Member) -> LeafTerm {
 }
 
 /// Sum a chunk of leaves into `re`, `im` (length M, zeroed by the caller).
-fn chunk_sum(sonar: &Sonar, terms: &[LeafTerm], re: &mut [f64], im: &mut [f64]) {
+fn chunk_sum(sonar: &Prepared, terms: &[LeafTerm], re: &mut [f64], im: &mut [f64]) {
     for t in terms {
         crate::echo::add_leaf(sonar, t, re, im);
     }
 }
 
 /// The windowed band spectrum `(re, im)` over the M band bins for the given members.
-pub fn band_spectrum(sonar: &Sonar, scene: &Scene, members: &[Member]) -> (Vec<f64>, Vec<f64>) {
+pub fn band_spectrum(sonar: &Prepared, scene: &Scene, members: &[Member]) -> (Vec<f64>, Vec<f64>) {
     let terms: Vec<LeafTerm> = members
         .iter()
         .map(|mb| leaf_term(sonar, scene, mb))
@@ -96,7 +97,7 @@ pub fn band_spectrum(sonar: &Sonar, scene: &Scene, members: &[Member]) -> (Vec<f
 }
 
 /// The windowed band spectrum of the given leaf terms, summed in their order.
-pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+pub fn sum_terms(sonar: &Prepared, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     let (mut re, mut im) = sum_terms_unwindowed(sonar, terms);
     for j in 0..re.len() {
         re[j] *= sonar.window[j];
@@ -106,7 +107,7 @@ pub fn sum_terms(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// The band spectrum of the given leaf terms without the window, summed in their order.
-pub fn sum_terms_unwindowed(sonar: &Sonar, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+pub fn sum_terms_unwindowed(sonar: &Prepared, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let m_pad = sonar.tables.m_pad;
     // (accumulators on cache lines: see `crate::math::aligned`)

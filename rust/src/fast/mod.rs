@@ -28,6 +28,7 @@
 //! a later pass ([`leftover_pass`]).
 
 pub mod nufft;
+pub mod prepared;
 pub mod pulse;
 pub mod subband;
 
@@ -44,7 +45,8 @@ use crate::lobe::Member;
 use crate::fast::nufft::{Type1Plan, MAX_W};
 use crate::physics::phase::CyclesPerBin;
 use crate::scene::Scene;
-use crate::sonar::{LeafModel, Sonar};
+use crate::sonar::LeafModel;
+pub use prepared::FastSonar;
 use crate::echo::spectrum::{leaf_term, sum_terms, LeafTerm};
 use crate::fast::subband::{KinkPass, KinkedLeaf, KinkedShare};
 use crate::math::vmath::{
@@ -174,12 +176,12 @@ pub struct FastPlan {
 }
 
 impl FastPlan {
-    pub fn new(sonar: &Sonar, tol: f64) -> Result<FastPlan> {
+    pub fn new(sonar: &FastSonar, tol: f64) -> Result<FastPlan> {
         FastPlan::with_nodes(sonar, tol, nodes_for_tol(tol))
     }
 
     /// A plan with `p` Chebyshev nodes (at most [`MAX_NODES`]).
-    pub fn with_nodes(sonar: &Sonar, tol: f64, p: usize) -> Result<FastPlan> {
+    pub fn with_nodes(sonar: &FastSonar, tol: f64, p: usize) -> Result<FastPlan> {
         if !(MIN_TOL..1.0).contains(&tol) {
             return invalid(format!(
                 "tol must be in [{MIN_TOL:e}, 1) for the fast method, got {tol:e} (use method='exact' for exact sums)"
@@ -281,14 +283,14 @@ impl std::fmt::Debug for PlanCache {
 
 impl PlanCache {
     /// The plan for `tol`, built on first use.
-    pub fn get(&self, sonar: &Sonar, tol: f64) -> Result<std::sync::Arc<FastPlan>> {
+    pub fn get(&self, sonar: &FastSonar, tol: f64) -> Result<std::sync::Arc<FastPlan>> {
         self.get_with_nodes(sonar, tol, nodes_for_tol(tol))
     }
 
     /// The plan for `tol` with `p` nodes, built on first use.
     pub fn get_with_nodes(
         &self,
-        sonar: &Sonar,
+        sonar: &FastSonar,
         tol: f64,
         p: usize,
     ) -> Result<std::sync::Arc<FastPlan>> {
@@ -323,7 +325,7 @@ enum Route {
 /// paper model goes through [`paper_batch`], eight leaves at a time.)
 #[inline(always)]
 fn po_node_values(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     t: &LeafTerm,
     fr: &mut [f64; MAX_NODES],
@@ -367,7 +369,7 @@ fn po_node_values(
 /// Spread one physical-optics leaf; false when its factor cannot be interpolated to tol (the
 /// caller sums it exactly).
 #[inline(always)]
-pub(crate) fn po_leaf(sonar: &Sonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [f64]) -> bool {
+pub(crate) fn po_leaf(sonar: &FastSonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [f64]) -> bool {
     let p = plan.p;
     let sp = &sonar.params;
     let (mut fr, mut fi) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
@@ -845,7 +847,7 @@ impl PaperLanes {
     }
 
     /// Lanes of up to `LB` terms (smooth or kinked, with their first live bins).
-    fn of(sonar: &Sonar, terms: &[&LeafTerm]) -> PaperLanes {
+    fn of(sonar: &FastSonar, terms: &[&LeafTerm]) -> PaperLanes {
         let mut l = PaperLanes::new();
         for t in terms {
             let kink = match paper_regime(&sonar.tables, t) {
@@ -963,7 +965,7 @@ impl PaperLanes {
     #[inline(always)]
     pub(crate) fn ready_whole(
         &mut self,
-        sonar: &Sonar,
+        sonar: &FastSonar,
         out: &[bool; LB],
         inside: &[bool; LB],
     ) -> bool {
@@ -998,7 +1000,7 @@ impl PaperLanes {
     #[inline(always)]
     pub(crate) fn kinked_leaf(
         &self,
-        sonar: &Sonar,
+        sonar: &FastSonar,
         plan: &FastPlan,
         i: usize,
     ) -> Option<KinkedLeaf> {
@@ -1052,7 +1054,7 @@ const ADAPT_SAMPLE: usize = 128;
 /// node count, and the count with the least expected cost is taken. Leaves that need more
 /// fail the per-leaf check and get a second pass at the full count (or the exact sum), so the
 /// choice changes the speed, never the error bound.
-fn choose_nodes(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
+fn choose_nodes(sonar: &FastSonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
     if terms.len() < ADAPT_MIN_LEAVES || sonar.params.leaf_model != LeafModel::Paper {
         return plan.p;
     }
@@ -1064,7 +1066,7 @@ fn choose_nodes(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> usize {
 /// [`choose_nodes`] from a sample of the call's leaves (paper model; at most [`ADAPT_SAMPLE`]
 /// smooth ones are used).
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafTerm]) -> usize {
+pub(crate) fn choose_nodes_from(sonar: &FastSonar, plan: &FastPlan, sample: &[&LeafTerm]) -> usize {
     let sample: Vec<&LeafTerm> = sample
         .iter()
         .copied()
@@ -1139,7 +1141,7 @@ pub(crate) fn choose_nodes_from(sonar: &Sonar, plan: &FastPlan, sample: &[&LeafT
 /// `B(c) beta >= pi/2` (the cosine is negative and `L` clamps to 0). `B` falls with frequency,
 /// so the bins split into a zero side `0..m*` and a live side `m*..M`.
 #[inline(always)]
-pub(crate) fn kink_bin(sonar: &Sonar, ap: f64, beta: f64) -> usize {
+pub(crate) fn kink_bin(sonar: &FastSonar, ap: f64, beta: f64) -> usize {
     first_live_bin(&sonar.tables, ap, beta, 0, sonar.tables.m - 1)
 }
 
@@ -1155,7 +1157,7 @@ pub(crate) enum PaperRoute {
 
 /// The route of a paper-model leaf of regime `regime` with `radius^-0.9065 = ap`.
 #[inline(always)]
-pub(crate) fn paper_route(sonar: &Sonar, regime: PaperRegime, ap: f64, beta: f64) -> PaperRoute {
+pub(crate) fn paper_route(sonar: &FastSonar, regime: PaperRegime, ap: f64, beta: f64) -> PaperRoute {
     match regime {
         PaperRegime::Zero => PaperRoute::Skip,
         PaperRegime::Smooth => PaperRoute::Batch(NOT_KINKED),
@@ -1170,7 +1172,7 @@ pub(crate) fn paper_route(sonar: &Sonar, regime: PaperRegime, ap: f64, beta: f64
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn add_interpolant(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     gr: &[f64; MAX_NODES],
     gi: &[f64; MAX_NODES],
@@ -1246,7 +1248,7 @@ impl Direct {
     }
 
     /// Add the exact (unwindowed) sum of `terms`, if any.
-    pub(crate) fn add_exact(&mut self, sonar: &Sonar, terms: &[LeafTerm]) {
+    pub(crate) fn add_exact(&mut self, sonar: &FastSonar, terms: &[LeafTerm]) {
         if terms.is_empty() {
             return;
         }
@@ -1309,7 +1311,7 @@ const KINK_FLOOR: f64 = 3e-15;
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn paper_batch<const ATTEN: bool>(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     lanes: &PaperLanes,
     grid: &mut [f64],
@@ -1464,7 +1466,7 @@ pub(crate) struct Failures {
 }
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn spread_chunk(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f64]) -> Partial {
+fn spread_chunk(sonar: &FastSonar, plan: &FastPlan, terms: &[LeafTerm], floors: &[f64]) -> Partial {
     let (p, glen) = (plan.p, plan.nufft.grid_len());
     let mut part = Partial {
         grid: take_grid(2 * p * glen),
@@ -1579,7 +1581,7 @@ pub(crate) fn second_chunk_len(n: usize) -> usize {
 /// The second fast pass over deferred leaves: the plan's full node count, tasks of
 /// [`second_chunk_len`], the leaves it still cannot represent summed exactly (None for none).
 pub(crate) fn second_pass(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     leaves: &[LeafTerm],
 ) -> Option<(Vec<f64>, Vec<f64>)> {
@@ -1596,7 +1598,7 @@ const SECOND_PASS_MIN: usize = 256;
 /// the exact-routed leaves (`exact`: outside the model's domain, or below a kinked leaf's
 /// rounding floor) by the exact sum. The three run side by side and are added in that order.
 pub(crate) fn leftover_pass(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     retry: &[LeafTerm],
     kinked: &[KinkedLeaf],
@@ -1657,7 +1659,7 @@ pub(crate) fn leftover_pass(
 
 /// The windowed band spectrum `(re, im)` of the members by the fast method.
 pub fn fast_band_spectrum(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     scene: &Scene,
     members: &[Member],
@@ -1696,7 +1698,7 @@ const KINKED_IN_TASKS_UP_TO: usize = 4;
 
 /// The windowed band spectrum of the given leaf terms by the fast method; `plan` fixes the
 /// tolerance and the largest node count (see [`choose_nodes`]).
-pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+pub fn fast_sum_terms(sonar: &FastSonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run on a pool thread, so that the parallel steps
         // follow one another there (from outside, each is injected into the pool and this
@@ -1711,14 +1713,14 @@ pub fn fast_sum_terms(sonar: &Sonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Ve
 /// [`fast_sum_terms`] on a pool thread; `alone`: the call is the pool's only work (see
 /// [`TaskCount::new`]).
 fn fast_sum_terms_in(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
     alone: bool,
 ) -> (Vec<f64>, Vec<f64>) {
     let p = choose_nodes(sonar, plan, terms);
     if p < plan.p {
-        if let Ok(smaller) = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p) {
+        if let Ok(smaller) = sonar.plans.get_with_nodes(sonar, plan.tol, p) {
             // First pass with fewer nodes; leaves it cannot represent get the full count, in a
             // later pass that runs beside the first pass's transforms.
             let chunk = chunk_len(terms.len(), smaller.nufft.nf);
@@ -1753,7 +1755,7 @@ fn fast_sum_terms_in(
 /// exactly. `floors` (empty, or one per term) are lower bounds of the leaves' peaks over a
 /// wider band, for the smoothness check ([`PaperLanes::floor`]).
 pub(crate) fn fast_sum_fixed(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
     floors: &[f64],
@@ -1791,7 +1793,7 @@ fn rest_terms(
 /// bins (unwindowed) with the leaves the grid cannot take summed exactly, as
 /// [`fast_sum_fixed`] sums them.
 pub(crate) fn spread_task(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
     floors: &[f64],
@@ -1827,7 +1829,7 @@ pub(crate) struct Spread {
 /// tasks' grids kept in task order; `alone`: the pass is the pool's only work (see
 /// [`TaskCount::new`]).
 pub(crate) fn spread_pass(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     terms: &[LeafTerm],
     floors: &[f64],
@@ -2013,7 +2015,7 @@ fn channel_sum(grids: &[Vec<f64>], span: std::ops::Range<usize>) -> Vec<Complex6
 /// The grids are summed in their order at every value (so the sums do not depend on the
 /// thread count) while each channel is copied for its transform, and go back to the pool.
 pub(crate) fn finish_grids(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     grids: Vec<Vec<f64>>,
     direct: (Vec<f64>, Vec<f64>),
@@ -2037,7 +2039,7 @@ pub(crate) fn finish_grids(
 /// `window (direct + sum_c L_c modes_c)` at each band bin, the channels added in order.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn lagrange_sum(
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     modes: &[Vec<Complex64>],
     (mut re, mut im): (Vec<f64>, Vec<f64>),
@@ -2068,7 +2070,7 @@ mod tests {
     use crate::echo::spectrum::sum_terms;
     use crate::test_util::{rel_l2_pair as rel_l2, sonar_with};
 
-    fn sonar(atm: Option<Atmosphere>, model: LeafModel) -> Sonar {
+    fn sonar(atm: Option<Atmosphere>, model: LeafModel) -> FastSonar {
         sonar_with(|p| {
             p.atmosphere = atm;
             p.leaf_model = model;
@@ -2127,7 +2129,7 @@ mod tests {
 
     /// `fast_sum_terms` at `tol = 1e-6` gives the same bits on the global pool (two threads)
     /// and on a pool of one.
-    fn assert_same_bits_on_one_and_two_threads(s: &Sonar, t: &[LeafTerm]) {
+    fn assert_same_bits_on_one_and_two_threads(s: &FastSonar, t: &[LeafTerm]) {
         let plan = FastPlan::new(s, 1e-6).unwrap();
         let a = fast_sum_terms(s, &plan, t);
         let pool = rayon::ThreadPoolBuilder::new()
@@ -2157,7 +2159,7 @@ mod tests {
     }
 
     /// Kinked paper-model leaves only (the factor's cosine crosses zero inside the band).
-    fn kinked_terms(s: &Sonar, n: usize) -> Vec<LeafTerm> {
+    fn kinked_terms(s: &FastSonar, n: usize) -> Vec<LeafTerm> {
         terms(40 * n)
             .into_iter()
             .filter(|t| paper_regime(&s.tables, t) == PaperRegime::Kinked)
@@ -2209,7 +2211,7 @@ mod tests {
 
     /// 20,000 leaves, every tenth kinked: a first pass of four tasks, which spread their
     /// kinked leaves themselves.
-    fn few_task_terms(s: &Sonar) -> Vec<LeafTerm> {
+    fn few_task_terms(s: &FastSonar) -> Vec<LeafTerm> {
         let kinked = kinked_terms(s, 2000);
         let smooth = terms(18_000);
         let mut t = Vec::with_capacity(20_000);
@@ -2228,7 +2230,7 @@ mod tests {
         let full = FastPlan::new(&s, 1e-6).unwrap();
         let p = choose_nodes(&s, &full, &t);
         assert!(p < full.p, "{p} {}", full.p);
-        let plan = s.fast_plans.get_with_nodes(&s, 1e-6, p).unwrap();
+        let plan = s.plans.get_with_nodes(&s, 1e-6, p).unwrap();
         let chunk = chunk_len(t.len(), plan.nufft.nf);
         assert!(t.len().div_ceil(chunk) <= KINKED_IN_TASKS_UP_TO);
         let kink = KinkPass::new(&s, 1e-6, p).unwrap();

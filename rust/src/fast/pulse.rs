@@ -21,10 +21,11 @@ use crate::fast::{
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::echo::{paper_regime, paper_regime_of};
-use crate::lobe::{bvh_candidates, classify_candidates, classify_member, BlockView, Search};
+use crate::lobe::{classify_candidates, classify_member, BlockView};
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
-use crate::sonar::{LeafModel, Sonar, TooClose};
+use crate::fast::FastSonar;
+use crate::sonar::{LeafModel, TooClose};
 use crate::echo::spectrum::{leaf_amp, leaf_term, LeafTerm};
 use crate::fast::subband::KinkedLeaf;
 use multiversion::multiversion;
@@ -37,15 +38,6 @@ const SAMPLE: usize = 256;
 /// of a 1e6-leaf pulse before its tasks could start (their reads missed: 176 us cold, 30 us for
 /// the same call repeated; prefetching them first did not help), runs of 16 40-65 us.
 const SAMPLE_RUN: usize = 16;
-
-/// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
-/// every leaf in index order.
-pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> Candidates {
-    match search {
-        Search::Bvh => bvh_candidates(scene, sonar, pose),
-        Search::BruteForce => Candidates::all(scene.len()),
-    }
-}
 
 /// One chunk's share.
 struct Part {
@@ -65,7 +57,7 @@ struct Part {
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn pulse_chunk(
     scene: &Scene,
-    sonar: &Sonar,
+    sonar: &FastSonar,
     pose: &Pose,
     plan: &FastPlan,
     cands: &Candidates,
@@ -205,7 +197,7 @@ fn pulse_chunk(
 /// The terms of the counting leaves among `cands` (the lobe test of [`pulse_chunk`], block by
 /// block).
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn sample_terms(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &[u32]) -> Vec<LeafTerm> {
+fn sample_terms(scene: &Scene, sonar: &FastSonar, pose: &Pose, cands: &[u32]) -> Vec<LeafTerm> {
     let mut out = Vec::with_capacity(cands.len());
     let mut too_close = None; // (reported by the pass itself)
     let mut v = BlockView::default();
@@ -224,7 +216,7 @@ fn sample_terms(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &[u32]) -> Vec
 /// counting leaves. `pose_index` only labels errors.
 pub fn fast_pulse(
     scene: &Scene,
-    sonar: &Sonar,
+    sonar: &FastSonar,
     plan: &FastPlan,
     pose: &Pose,
     pose_index: usize,
@@ -252,7 +244,7 @@ pub fn fast_pulse(
             let refs: Vec<&LeafTerm> = sample.iter().collect();
             let p = choose_nodes_from(sonar, plan, &refs);
             if p < plan.p {
-                small_plan = sonar.fast_plans.get_with_nodes(sonar, plan.tol, p)?;
+                small_plan = sonar.plans.get_with_nodes(sonar, plan.tol, p)?;
                 &small_plan
             } else {
                 plan
@@ -331,7 +323,8 @@ pub fn fast_pulse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sonar::{LobeRule, SonarParams};
+    use crate::lobe::{candidates, Search};
+    use crate::sonar::{LobeRule, Sonar, SonarParams};
     use crate::echo::spectrum::band_spectrum;
     use crate::test_util::rel_l2;
 
@@ -351,7 +344,7 @@ mod tests {
         Scene::new(c, nv, r).unwrap()
     }
 
-    fn sonars() -> Vec<Sonar> {
+    fn sonars() -> Vec<FastSonar> {
         let mut out = Vec::new();
         for lobe in [
             None,
@@ -366,7 +359,7 @@ mod tests {
                 if let Some(l) = lobe {
                     p.lobe = l;
                 }
-                out.push(Sonar::new(p).unwrap());
+                out.push(FastSonar::new(Sonar::new(p).unwrap()));
             }
         }
         out
@@ -419,7 +412,7 @@ mod tests {
         p.lobe = LobeRule::Cone {
             half_angle: 70f64.to_radians(),
         };
-        let s = Sonar::new(p).unwrap();
+        let s = FastSonar::new(Sonar::new(p).unwrap());
         let mem = crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).unwrap();
         assert_eq!(mem.len(), 35_000);
         let kinked = mem.iter().filter(|m| {
@@ -477,7 +470,7 @@ mod tests {
         // every leaf within 1 m of this pose is too close (min_range 1 m)
         let mut p = s.params.clone();
         p.min_range = 1.0;
-        let s = Sonar::new(p).unwrap();
+        let s = FastSonar::new(Sonar::new(p).unwrap());
         let pose = Pose::new([0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
         let want = (0..sc.len())
             .filter(|&k| {

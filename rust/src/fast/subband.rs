@@ -30,6 +30,7 @@ use crate::fast::{
     choose_nodes_from, chunk_len, fast_sum_fixed, finish_grids, spread_task, Direct, FastPlan,
     K_FACTOR_TOL,
 };
+use crate::fast::FastSonar;
 use crate::sonar::{LeafModel, Sonar, Window};
 use crate::echo::spectrum::LeafTerm;
 use rayon::prelude::*;
@@ -48,7 +49,7 @@ const ADAPT_MIN: usize = 64;
 /// The sub-bands of a sonar's band: their first bins (within the band) and their sonars.
 #[derive(Clone)]
 pub struct SubBands {
-    pub bands: Vec<(usize, Sonar)>,
+    pub bands: Vec<(usize, FastSonar)>,
 }
 
 impl std::fmt::Debug for SubBands {
@@ -63,7 +64,7 @@ impl std::fmt::Debug for SubBands {
 
 impl SubBands {
     /// `None` where the band has fewer than `MIN_SUB_BANDS * MIN_SUB_BAND_BINS` bins (~520).
-    pub fn new(sonar: &Sonar) -> Result<Option<SubBands>> {
+    pub fn new(sonar: &FastSonar) -> Result<Option<SubBands>> {
         let m = sonar.n_bins();
         let s = ((m + SUB_BAND_BINS / 2) / SUB_BAND_BINS).max(MIN_SUB_BANDS);
         if m / s < MIN_SUB_BAND_BINS {
@@ -78,7 +79,7 @@ impl SubBands {
             p.f_lo = (sonar.k0 + lo) as f64 * df;
             p.f_hi = (sonar.k0 + hi) as f64 * df;
             p.window = Window::Rect;
-            let sub = Sonar::new(p)?;
+            let sub = FastSonar::new(Sonar::new(p)?);
             if (sub.k0, sub.k1) != (sonar.k0 + lo, sonar.k0 + hi) {
                 return Ok(None); // (cannot happen; the full-band passes would stand in)
             }
@@ -91,7 +92,7 @@ impl SubBands {
     /// last sub-band (all but those whose corner lies in it), the worst case for few leaves.
     fn node_count(&self, tol: f64, leaves: &[KinkedLeaf]) -> Result<usize> {
         let (_, last) = self.bands.last().expect("sub-bands");
-        let full = last.fast_plans.get(last, tol)?;
+        let full = last.plans.get(last, tol)?;
         if leaves.len() < ADAPT_MIN {
             return Ok(full.p);
         }
@@ -106,7 +107,7 @@ impl SubBands {
     /// to `tol`.
     pub(crate) fn kinked_sum(
         &self,
-        sonar: &Sonar,
+        sonar: &FastSonar,
         tol: f64,
         leaves: &[KinkedLeaf],
     ) -> Result<(Vec<f64>, Vec<f64>)> {
@@ -128,7 +129,7 @@ impl SubBands {
     /// the band of `sonar`, whose window they take, in order.
     fn in_band(
         &self,
-        sonar: &Sonar,
+        sonar: &FastSonar,
         parts: Vec<Option<(Vec<f64>, Vec<f64>)>>,
     ) -> (Vec<f64>, Vec<f64>) {
         let m = sonar.n_bins();
@@ -164,7 +165,7 @@ impl KinkPass {
     /// For `sonar`'s paper-model fast passes at `tol` with `p` nodes: the sub-bands take the
     /// same count (capped at their worst case), the count chosen for the band's leaves. None
     /// where the band has no sub-bands or the model is not the paper's.
-    pub(crate) fn new(sonar: &Sonar, tol: f64, p: usize) -> Option<KinkPass> {
+    pub(crate) fn new(sonar: &FastSonar, tol: f64, p: usize) -> Option<KinkPass> {
         if sonar.params.leaf_model != LeafModel::Paper {
             return None;
         }
@@ -173,8 +174,8 @@ impl KinkPass {
             .bands
             .iter()
             .map(|(_, sub)| {
-                let most = sub.fast_plans.get(sub, tol)?.p;
-                sub.fast_plans.get_with_nodes(sub, tol, p.min(most))
+                let most = sub.plans.get(sub, tol)?.p;
+                sub.plans.get_with_nodes(sub, tol, p.min(most))
             })
             .collect::<Result<Vec<_>>>()
             .ok()?;
@@ -202,7 +203,7 @@ impl KinkPass {
     /// and direct bins summed in that order, its transforms, the sub-bands added in order.
     pub(crate) fn finish(
         &self,
-        sonar: &Sonar,
+        sonar: &FastSonar,
         shares: Vec<KinkedShare>,
     ) -> Option<(Vec<f64>, Vec<f64>)> {
         let nb = self.subs.bands.len();
@@ -249,7 +250,7 @@ pub(crate) struct KinkedLeaf {
 impl KinkedLeaf {
     /// The leaf `t` of `sonar`'s band whose first live bin is `live_from`, for tolerance `tol`.
     #[inline(always)]
-    pub(crate) fn new(sonar: &Sonar, tol: f64, t: LeafTerm, live_from: usize) -> KinkedLeaf {
+    pub(crate) fn new(sonar: &FastSonar, tol: f64, t: LeafTerm, live_from: usize) -> KinkedLeaf {
         KinkedLeaf {
             term: t,
             live_from,
@@ -259,7 +260,7 @@ impl KinkedLeaf {
 
     /// [`KinkedLeaf::new`] with the first live bin found here.
     #[cfg(test)]
-    fn of(sonar: &Sonar, tol: f64, t: LeafTerm) -> KinkedLeaf {
+    fn of(sonar: &FastSonar, tol: f64, t: LeafTerm) -> KinkedLeaf {
         let live_from = crate::fast::kink_bin(sonar, t.radius_pow_b, t.beta);
         KinkedLeaf::new(sonar, tol, t, live_from)
     }
@@ -282,7 +283,7 @@ fn live_before(leaves: &[KinkedLeaf], end: usize) -> (Vec<LeafTerm>, Vec<f64>) {
 /// One sub-band's fast sum at `p` nodes, the leaves that fail the check summed exactly (over
 /// this sub-band only).
 fn band_sum(
-    sub: &Sonar,
+    sub: &FastSonar,
     tol: f64,
     p: usize,
     terms: &[LeafTerm],
@@ -292,7 +293,7 @@ fn band_sum(
         let m = sub.n_bins();
         return Ok((vec![0.0; m], vec![0.0; m]));
     }
-    let plan = sub.fast_plans.get_with_nodes(sub, tol, p)?;
+    let plan = sub.plans.get_with_nodes(sub, tol, p)?;
     Ok(fast_sum_fixed(
         sub,
         &plan,
@@ -307,7 +308,7 @@ fn band_sum(
 /// measures the error against the peak on the live side; a sub-band near the corner sees only
 /// small values). Channels carry `k F` below [`K_FACTOR_TOL`], `F` above.
 #[inline(always)]
-fn top_bin_magnitude(sonar: &Sonar, tol: f64, t: &LeafTerm) -> f64 {
+fn top_bin_magnitude(sonar: &FastSonar, tol: f64, t: &LeafTerm) -> f64 {
     use crate::physics::leaf::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};
     let j = sonar.n_bins() - 1;
     let k = sonar.wavenumbers[j];
@@ -334,7 +335,7 @@ mod tests {
     use crate::echo::spectrum::sum_terms;
     use crate::test_util::{rel_l2_pair as rel_l2, sonar_with, uniforms};
 
-    fn sonar(atm: Option<Atmosphere>, window: Window) -> Sonar {
+    fn sonar(atm: Option<Atmosphere>, window: Window) -> FastSonar {
         sonar_with(|p| {
             p.atmosphere = atm;
             p.window = window;
@@ -342,12 +343,12 @@ mod tests {
     }
 
     /// The leaves with their first live bins and floors, as a first pass gives them.
-    fn keyed(s: &Sonar, tol: f64, t: &[LeafTerm]) -> Vec<KinkedLeaf> {
+    fn keyed(s: &FastSonar, tol: f64, t: &[LeafTerm]) -> Vec<KinkedLeaf> {
         t.iter().map(|&t| KinkedLeaf::of(s, tol, t)).collect()
     }
 
     /// `n` kinked leaves: radii 3 mm - 10 cm, near and far.
-    fn kinked(s: &Sonar, n: usize, seed: u64) -> Vec<LeafTerm> {
+    fn kinked(s: &FastSonar, n: usize, seed: u64) -> Vec<LeafTerm> {
         let mut u = uniforms(seed);
         std::iter::repeat_with(|| {
             let radius = 0.003 * (100.0f64 / 3.0).powf(u());
@@ -456,7 +457,7 @@ mod tests {
         assert!(p <= 5, "{p}");
         let n = terms.len();
         for (b, (lo, sub)) in subs.bands.iter().enumerate() {
-            let plan = sub.fast_plans.get_with_nodes(sub, 1e-6, p).unwrap();
+            let plan = sub.plans.get_with_nodes(sub, 1e-6, p).unwrap();
             let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024, None, false);
             // (in the last sub-band, leaves whose corner lies there have a small value at the
             // top bin, the floor of their budget)

@@ -322,6 +322,15 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose) -> Candidates {
     walk.par_subtree(0, false, levels)
 }
 
+/// The candidates of a pose in a thread-independent order: the BVH's traversal order, or
+/// every leaf in index order.
+pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> Candidates {
+    match search {
+        Search::Bvh => bvh_candidates(scene, sonar, pose),
+        Search::BruteForce => Candidates::all(scene.len()),
+    }
+}
+
 /// What the walk does at one node.
 enum Step<'a> {
     /// Outside the lobe: nothing below it counts.
@@ -884,7 +893,7 @@ pub fn members(
         sonar,
         pose,
         pose_index,
-        crate::fast::pulse::candidates(scene, sonar, pose, search).to_vec(),
+        candidates(scene, sonar, pose, search).to_vec(),
     )
 }
 
@@ -941,7 +950,7 @@ pub fn farthest_member_range(
     search: Search,
 ) -> Result<f64> {
     let sp = &sonar.params;
-    let ids = crate::fast::pulse::candidates(scene, sonar, pose, search).to_vec();
+    let ids = candidates(scene, sonar, pose, search).to_vec();
     let ranges: Vec<f64> = ids
         .par_iter()
         .with_min_len(CLASSIFY_CHUNK)

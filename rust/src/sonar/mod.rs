@@ -1,10 +1,10 @@
 //! Sonar parameters (MODEL.md sections 2-5) and the quantities derived from them once:
-//! the band bins and their tables, the detection constant, the range limit.
+//! the band bins, frequencies, wavenumbers and window, the detection constant, the range limit.
+//! No kernel's cache lives here: see [`crate::echo::Prepared`] and [`crate::fast::FastSonar`].
 
 use crate::physics::absorption::Atmosphere;
 use crate::physics::beam::GaussianBeam;
 use crate::error::{invalid, Result};
-use crate::echo::BandTables;
 use std::f64::consts::PI;
 
 /// Which leaves count (MODEL.md section 3).
@@ -119,7 +119,7 @@ fn band_atten_at(p: &SonarParams, k0: usize, x: f64) -> f64 {
     })
 }
 
-/// A validated sonar with its derived tables.
+/// A validated sonar: its parameters and the band quantities derived from them.
 #[derive(Clone, Debug)]
 pub struct Sonar {
     pub params: SonarParams,
@@ -139,12 +139,6 @@ pub struct Sonar {
     /// Absorption per band bin, in nepers of amplitude per metre of range (two-way, so the
     /// factor is `exp(-atten * r)`); empty when absorption is off.
     pub atten_per_m: Vec<f64>,
-    /// Per-bin tables of the spectrum kernel.
-    pub tables: BandTables,
-    /// Fast-path plans by tolerance (built on first use).
-    pub fast_plans: crate::fast::PlanCache,
-    /// The band's sub-bands for kinked leaves (built on first use; see [`crate::fast::subband`]).
-    sub_bands: std::sync::OnceLock<Option<std::sync::Arc<crate::fast::subband::SubBands>>>,
 }
 
 impl Sonar {
@@ -274,22 +268,7 @@ impl Sonar {
                 .collect(),
             None => Vec::new(),
         };
-        let atten_at = |x: f64| band_atten_at(&params, k0, x);
-        let tables = BandTables::new(
-            k0,
-            &wavenumbers,
-            &atten_per_m,
-            |x| band_wavenumber_at(&params, k0, x),
-            if params.atmosphere.is_some() {
-                Some(&atten_at)
-            } else {
-                None
-            },
-        );
         Ok(Sonar {
-            fast_plans: Default::default(),
-            sub_bands: Default::default(),
-            tables,
             params,
             k0,
             k1,
@@ -311,20 +290,6 @@ impl Sonar {
     /// Absorption (nepers per metre of range, two-way) at band-bin position `x`; 0 when off.
     pub fn atten_at(&self, x: f64) -> f64 {
         band_atten_at(&self.params, self.k0, x)
-    }
-
-    /// The band's sub-bands for kinked leaves; None where the band is too narrow for them.
-    pub fn sub_bands(&self) -> Option<std::sync::Arc<crate::fast::subband::SubBands>> {
-        self.sub_bands
-            .get_or_init(|| {
-                // (a sub-band of a valid sonar is valid; were one not, the full-band passes
-                // stand in)
-                crate::fast::subband::SubBands::new(self)
-                    .ok()
-                    .flatten()
-                    .map(std::sync::Arc::new)
-            })
-            .clone()
     }
 
     /// Number of band bins M.
