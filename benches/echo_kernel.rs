@@ -13,7 +13,7 @@ use batecho::fast::FastSonar;
 use batecho::scene::Scene;
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
-use batecho::echo::spectrum::{leaf_term, sum_terms, LeafTerm};
+use batecho::echo::{leaf_term, sum_terms, LeafTerm};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 

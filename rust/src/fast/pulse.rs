@@ -26,7 +26,7 @@ use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::fast::FastSonar;
 use crate::sonar::{LeafModel, TooClose};
-use crate::echo::spectrum::{leaf_amp, leaf_term, LeafTerm};
+use crate::echo::term::{leaf_amp, leaf_term, LeafTerm};
 use crate::fast::subband::KinkedLeaf;
 use multiversion::multiversion;
 use rayon::prelude::*;
@@ -416,7 +416,7 @@ mod tests {
         let mem = crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).unwrap();
         assert_eq!(mem.len(), 35_000);
         let kinked = mem.iter().filter(|m| {
-            let t = crate::echo::spectrum::leaf_term(&s, &sc, m);
+            let t = crate::echo::term::leaf_term(&s, &sc, m);
             paper_regime(&s.tables, &t) == crate::echo::PaperRegime::Kinked
         });
         assert_eq!(kinked.count(), mem.len());

@@ -32,7 +32,7 @@ use crate::fast::{
 };
 use crate::fast::FastSonar;
 use crate::sonar::{LeafModel, Sonar, Window};
-use crate::echo::spectrum::LeafTerm;
+use crate::echo::term::LeafTerm;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -261,7 +261,7 @@ impl KinkedLeaf {
     /// [`KinkedLeaf::new`] with the first live bin found here.
     #[cfg(test)]
     fn of(sonar: &FastSonar, tol: f64, t: LeafTerm) -> KinkedLeaf {
-        let live_from = crate::fast::kink_bin(sonar, t.radius_pow_b, t.beta);
+        let live_from = crate::fast::kinks::kink_bin(sonar, t.radius_pow_b, t.beta);
         KinkedLeaf::new(sonar, tol, t, live_from)
     }
 }
@@ -458,7 +458,7 @@ mod tests {
         let n = terms.len();
         for (b, (lo, sub)) in subs.bands.iter().enumerate() {
             let plan = sub.plans.get_with_nodes(sub, 1e-6, p).unwrap();
-            let f = crate::fast::spread_pass(sub, &plan, &terms, &floors, 1024, None, false);
+            let f = crate::fast::pass::spread_pass(sub, &plan, &terms, &floors, 1024, None, false);
             // (in the last sub-band, leaves whose corner lies there have a small value at the
             // top bin, the floor of their budget)
             let most = if b + 1 == subs.bands.len() {
