@@ -5,15 +5,15 @@
 //!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
 //! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order.
 
+use batecho::echo::{leaf_term, sum_terms, LeafTerm};
+use batecho::fast::pulse::fast_pulse;
+use batecho::fast::FastSonar;
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
 use batecho::lobe::{candidates, members, Search};
 use batecho::physics::pose::Pose;
-use batecho::fast::pulse::fast_pulse;
-use batecho::fast::FastSonar;
 use batecho::scene::Scene;
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
-use batecho::echo::{leaf_term, sum_terms, LeafTerm};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 

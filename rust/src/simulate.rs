@@ -1,16 +1,16 @@
 //! Echoes for many poses: the lobe query, the band spectrum and the impulse response of each
 //! pose, poses in parallel.
 
-use crate::error::{invalid, Result};
-use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::echo::impulse::impulse_from_band;
+use crate::echo::spectrum::band_spectrum;
+use crate::error::{invalid, Result};
+use crate::fast::pulse::fast_pulse;
+use crate::fast::FastSonar;
+use crate::fast::{fast_band_spectrum, FastPlan};
 use crate::lobe::{candidates, farthest_member_range, members_of, Search};
 use crate::physics::pose::Pose;
-use crate::fast::pulse::fast_pulse;
 use crate::scene::Scene;
-use crate::fast::FastSonar;
 use crate::sonar::Sonar;
-use crate::echo::spectrum::band_spectrum;
 use rayon::prelude::*;
 
 /// Echoes of `p` poses: spectra `(p, M)` as separate real and imaginary parts, impulses

@@ -1,11 +1,11 @@
 //! The Python extension `batecho._core`: conversion between NumPy arrays and the pure-Rust
 //! core, and nothing else. Heavy work runs with the GIL released.
 
-use batecho::physics::absorption::Atmosphere;
-use batecho::physics::beam::GaussianBeam;
 use batecho::error::Error;
 use batecho::fast::FastSonar;
 use batecho::lobe::{self, Search};
+use batecho::physics::absorption::Atmosphere;
+use batecho::physics::beam::GaussianBeam;
 use batecho::physics::pose::{Pose, V3};
 use batecho::scene::Scene;
 use batecho::simulate;

@@ -1,19 +1,21 @@
 //! The per-leaf spectrum kernel: one leaf's unwindowed term added to every band bin, by the
 //! paper model's smooth (interpolated) or pointwise vector blocks, physical optics' blocks, or
 //! the scalar libm path.
-use crate::physics::leaf::{self};
-use crate::physics::phase::CyclesPerBin;
-use crate::sonar::LeafModel;
-use crate::echo::term::LeafTerm;
-use crate::math::vmath::{
-    cos_0_pi, erf_in, erf_interval, exp_nonpos, sincos_unit,
-};
-use multiversion::multiversion;
-use std::f64::consts::{FRAC_PI_2, PI};
-use crate::echo::tables::ANCHOR_BINS;
+use crate::echo::po::po_blocks;
+use crate::echo::prepared::Prepared;
+use crate::echo::regime::first_live_bin;
+use crate::echo::regime::paper_regime;
+use crate::echo::regime::PaperRegime;
 use crate::echo::tables::BandTables;
+use crate::echo::tables::Tables;
+use crate::echo::tables::ANCHOR_BINS;
 use crate::echo::tables::LANES;
 use crate::echo::tables::NODES;
+use crate::echo::tables::POLY_BLOCK;
+use crate::echo::tables::POLY_DEG;
+use crate::echo::tables::{lanes, lanes_mut};
+use crate::echo::term::LeafTerm;
+use crate::math::vmath::{cos_0_pi, erf_in, erf_interval, exp_nonpos, sincos_unit};
 use crate::physics::leaf::PAPER_A0;
 use crate::physics::leaf::PAPER_A2;
 use crate::physics::leaf::PAPER_B0;
@@ -22,16 +24,11 @@ use crate::physics::leaf::PAPER_BETA_REF;
 use crate::physics::leaf::PAPER_P0;
 use crate::physics::leaf::PAPER_P1;
 use crate::physics::leaf::PAPER_PSI0;
-use crate::echo::tables::POLY_BLOCK;
-use crate::echo::tables::POLY_DEG;
-use crate::echo::regime::PaperRegime;
-use crate::echo::prepared::Prepared;
-use crate::echo::tables::Tables;
-use crate::echo::regime::first_live_bin;
-use crate::echo::regime::paper_regime;
-use crate::echo::po::po_blocks;
-use crate::echo::tables::{lanes, lanes_mut};
-
+use crate::physics::leaf::{self};
+use crate::physics::phase::CyclesPerBin;
+use crate::sonar::LeafModel;
+use multiversion::multiversion;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// A block is interpolated only if its polynomial reproduces the exact factor at the block's
 /// end (where Chebyshev interpolation errs most) to this fraction of the block's peak |F|, and
@@ -259,11 +256,14 @@ pub(super) fn accumulate_block(
     }
 }
 
-
 /// The magnitude of a block's last Chebyshev coefficient from its node lanes, and the peak of
 /// its node values.
 #[inline(always)]
-pub(super) fn last_coefficient(tab: &BandTables, fr: &[f64; LANES], fi: &[f64; LANES]) -> (f64, f64) {
+pub(super) fn last_coefficient(
+    tab: &BandTables,
+    fr: &[f64; LANES],
+    fi: &[f64; LANES],
+) -> (f64, f64) {
     let mut peak = 0.0f64;
     for i in 0..NODES {
         peak = peak.max(fr[i].abs()).max(fi[i].abs());

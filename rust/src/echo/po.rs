@@ -1,24 +1,20 @@
 //! The physical-optics leaf over all bins: its smooth extension interpolated per block (the
 //! C library's Bessel `j1` at the nodes only), its magnitude taken bin by bin.
-use crate::physics::leaf::{self};
-use crate::physics::phase::CyclesPerBin;
-use crate::echo::term::LeafTerm;
-use crate::math::vmath::{
-    exp_nonpos, j1_hankel, j1_interval, jinc_small,
-    J1_EDGES,
-};
-use multiversion::multiversion;
+use crate::echo::exact::accumulate_block;
+use crate::echo::exact::block_poly;
+use crate::echo::exact::last_coefficient;
+use crate::echo::exact::phase_steps;
 use crate::echo::tables::BandTables;
 use crate::echo::tables::LANES;
 use crate::echo::tables::NODES;
 use crate::echo::tables::POLY_BLOCK;
 use crate::echo::tables::POLY_DEG;
-use crate::echo::exact::accumulate_block;
-use crate::echo::exact::block_poly;
-use crate::echo::exact::last_coefficient;
-use crate::echo::exact::phase_steps;
 use crate::echo::tables::{lanes, lanes_mut};
-
+use crate::echo::term::LeafTerm;
+use crate::math::vmath::{exp_nonpos, j1_hankel, j1_interval, jinc_small, J1_EDGES};
+use crate::physics::leaf::{self};
+use crate::physics::phase::CyclesPerBin;
+use multiversion::multiversion;
 
 /// Largest last Chebyshev coefficient (of 7, relative to the block's peak) of an interpolated
 /// physical-optics block: `g` oscillates, so it is held far below the paper factor's

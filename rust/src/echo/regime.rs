@@ -1,11 +1,10 @@
 //! Where a paper-model leaf's `B(c) beta` lies over the band: zero, smooth, kinked or outside
 //! the polynomial cosine's domain, and the first bin where its factor is live.
-use crate::echo::term::LeafTerm;
-use std::f64::consts::{FRAC_PI_2, PI};
 use crate::echo::tables::BandTables;
+use crate::echo::term::LeafTerm;
 use crate::physics::leaf::PAPER_B0;
 use crate::physics::leaf::PAPER_B1;
-
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// The first bin in `lo..=hi` where the paper model's `L` is nonzero (`B(c) beta < pi/2`;
 /// `B` falls with k, so the dead bins come first), for `ap = radius^-0.9065`; `lo` when `L > 0`

@@ -6,13 +6,12 @@
 //! on the number of threads, so results are bit-identical for any `RAYON_NUM_THREADS`.
 use crate::math::aligned::Aligned;
 
+use crate::echo::term::leaf_term;
+use crate::echo::term::LeafTerm;
+use crate::echo::Prepared;
 use crate::lobe::Member;
 use crate::scene::Scene;
-use crate::echo::Prepared;
 use rayon::prelude::*;
-use crate::echo::term::LeafTerm;
-use crate::echo::term::leaf_term;
-
 
 /// Leaves per partial sum.
 pub const LEAF_CHUNK: usize = 64;

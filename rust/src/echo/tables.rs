@@ -1,10 +1,9 @@
 //! Per-bin tables shared by all leaves (wavenumbers, the paper model's powers of k,
 //! absorption, the interpolation blocks' nodes and matrices), at the band bins and at any
 //! fractional bin positions.
-use std::f64::consts::PI;
 use crate::physics::leaf::PAPER_BP;
 use crate::physics::leaf::PAPER_PP;
-
+use std::f64::consts::PI;
 
 /// Bins per vector block.
 pub const LANES: usize = 8;

@@ -5,7 +5,6 @@ use crate::lobe::Member;
 use crate::scene::Scene;
 use crate::sonar::Sonar;
 
-
 /// Per-leaf quantities the kernels need, in SI units.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]

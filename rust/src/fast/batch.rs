@@ -1,22 +1,19 @@
 //! One batch of paper-model leaves through a fast pass: node values, the smoothness check
 //! (with a kinked leaf's rounding floor), phases and grid positions, the kinks, the spreading.
-use crate::physics::leaf::{
-    PAPER_A0, PAPER_A2,
-};
-use crate::physics::phase::CyclesPerBin;
-use crate::math::vmath::cis_neg_cycles;
-use crate::fast::nodes::BatchScratch;
 use crate::fast::finish::Direct;
-use crate::fast::plan::FastPlan;
-use crate::fast::prepared::FastSonar;
-use crate::fast::lanes::LB;
-use crate::fast::plan::MAX_NODES;
-use crate::fast::lanes::NOT_KINKED;
-use crate::fast::lanes::PaperLanes;
 use crate::fast::kinks::add_interpolant;
+use crate::fast::lanes::PaperLanes;
+use crate::fast::lanes::LB;
+use crate::fast::lanes::NOT_KINKED;
 use crate::fast::nodes::paper_nodes;
+use crate::fast::nodes::BatchScratch;
+use crate::fast::plan::FastPlan;
+use crate::fast::plan::MAX_NODES;
+use crate::fast::prepared::FastSonar;
 use crate::fast::spread::spread_lanes;
-
+use crate::math::vmath::cis_neg_cycles;
+use crate::physics::leaf::{PAPER_A0, PAPER_A2};
+use crate::physics::phase::CyclesPerBin;
 
 /// The rounding floor of a kinked leaf's node values, relative to the factor's scale without
 /// the cosine (`amp A(c)`, largest over the nodes): near its corner `cos(B beta)` is accurate

@@ -1,14 +1,13 @@
 //! The end of a fast pass: the direct (bin by bin) sums, the tasks' grids added in order, one
 //! NUFFT per channel and the Lagrange combination into the windowed band spectrum.
 use crate::echo::term::LeafTerm;
+use crate::fast::lanes::LB;
+use crate::fast::plan::FastPlan;
+use crate::fast::pool::give_grid;
+use crate::fast::prepared::FastSonar;
 use multiversion::multiversion;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
-use crate::fast::plan::FastPlan;
-use crate::fast::prepared::FastSonar;
-use crate::fast::lanes::LB;
-use crate::fast::pool::give_grid;
-
 
 /// Unwindowed band-bin accumulators (length `M + LB`) for the terms a fast pass adds directly.
 pub(crate) struct Direct {

@@ -1,16 +1,13 @@
 //! Kinked paper-model leaves: the first live bin, the route of a leaf by its regime, and the
 //! interpolant added or subtracted bin by bin on one side of the corner.
-use crate::echo::{
-    first_live_bin, PaperRegime,
-};
-use crate::physics::phase::CyclesPerBin;
-use crate::math::vmath::cis_neg_cycles;
-use crate::fast::plan::FastPlan;
-use crate::fast::prepared::FastSonar;
+use crate::echo::{first_live_bin, PaperRegime};
 use crate::fast::lanes::LB;
-use crate::fast::plan::MAX_NODES;
 use crate::fast::lanes::NOT_KINKED;
-
+use crate::fast::plan::FastPlan;
+use crate::fast::plan::MAX_NODES;
+use crate::fast::prepared::FastSonar;
+use crate::math::vmath::cis_neg_cycles;
+use crate::physics::phase::CyclesPerBin;
 
 /// The first band bin where a kinked paper-model leaf's factor is nonzero: below it
 /// `B(c) beta >= pi/2` (the cosine is negative and `L` clamps to 0). `B` falls with frequency,
@@ -32,7 +29,12 @@ pub(crate) enum PaperRoute {
 
 /// The route of a paper-model leaf of regime `regime` with `radius^-0.9065 = ap`.
 #[inline(always)]
-pub(crate) fn paper_route(sonar: &FastSonar, regime: PaperRegime, ap: f64, beta: f64) -> PaperRoute {
+pub(crate) fn paper_route(
+    sonar: &FastSonar,
+    regime: PaperRegime,
+    ap: f64,
+    beta: f64,
+) -> PaperRoute {
     match regime {
         PaperRegime::Zero => PaperRoute::Skip,
         PaperRegime::Smooth => PaperRoute::Batch(NOT_KINKED),

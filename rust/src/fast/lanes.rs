@@ -1,15 +1,11 @@
 //! A batch of up to [`LB`] paper-model leaves as lanes (fields side by side), filled from terms
 //! or from a block of candidates, with each kinked leaf's first live bin.
-use crate::echo::{
-    paper_regime, paper_regime_bits, PaperRegime,
-    REGIME_KINKED, REGIME_ZERO,
-};
 use crate::echo::term::LeafTerm;
-use crate::fast::subband::KinkedLeaf;
+use crate::echo::{paper_regime, paper_regime_bits, PaperRegime, REGIME_KINKED, REGIME_ZERO};
+use crate::fast::kinks::kink_bin;
 use crate::fast::plan::FastPlan;
 use crate::fast::prepared::FastSonar;
-use crate::fast::kinks::kink_bin;
-
+use crate::fast::subband::KinkedLeaf;
 
 /// The most lanes that add nothing in a block of leaves batched whole: each costs a lane of
 /// the batch's vector work, about three times what routing a counting leaf alone costs (an

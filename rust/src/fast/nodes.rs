@@ -1,24 +1,21 @@
 //! The paper model's leaf factor at the plan's nodes for a batch of leaves (lanes), at the
 //! precision the tolerance needs, and the node count chosen from a sample of those values.
-use crate::echo::{
-    paper_regime, PaperRegime,
+use crate::echo::term::LeafTerm;
+use crate::echo::{paper_regime, PaperRegime};
+use crate::fast::lanes::PaperLanes;
+use crate::fast::lanes::LB;
+use crate::fast::plan::FastPlan;
+use crate::fast::plan::MAX_NODES;
+use crate::fast::prepared::FastSonar;
+use crate::math::vmath::{
+    cos_0_pi_k, erf_cheb_lanes, erf_exp_cheb_lanes, exp_nonpos_d, sincos_unit_k,
 };
 use crate::physics::leaf::{
     PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1, PAPER_BETA_REF, PAPER_P0, PAPER_P1, PAPER_PSI0,
 };
 use crate::sonar::LeafModel;
-use crate::echo::term::LeafTerm;
-use crate::math::vmath::{
-    cos_0_pi_k, erf_cheb_lanes, erf_exp_cheb_lanes, exp_nonpos_d, sincos_unit_k,
-};
 use multiversion::multiversion;
 use std::f64::consts::PI;
-use crate::fast::plan::FastPlan;
-use crate::fast::prepared::FastSonar;
-use crate::fast::lanes::LB;
-use crate::fast::plan::MAX_NODES;
-use crate::fast::lanes::PaperLanes;
-
 
 /// From this tolerance up, node values use the short series of [`crate::math::vmath`] (errors
 /// below 1e-12, far under the `tol / 5` budget) instead of the full ones (~1e-16).

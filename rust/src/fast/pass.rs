@@ -2,29 +2,28 @@
 //! passes for the leaves it leaves, and the entry points `fast_sum_terms` and
 //! `fast_band_spectrum`.
 use crate::echo::paper_regime;
+use crate::echo::{leaf_term, sum_terms, LeafTerm};
+use crate::fast::batch::paper_batch;
+use crate::fast::finish::add_grids;
+use crate::fast::finish::finish_grids;
+use crate::fast::finish::Direct;
+use crate::fast::kinks::paper_route;
+use crate::fast::kinks::PaperRoute;
+use crate::fast::lanes::PaperLanes;
+use crate::fast::lanes::LB;
+use crate::fast::nodes::choose_nodes;
+use crate::fast::nodes::BatchScratch;
+use crate::fast::plan::FastPlan;
+use crate::fast::po::po_leaf;
+use crate::fast::pool::take_grid;
+use crate::fast::prepared::FastSonar;
+use crate::fast::schedule::TaskCount;
+use crate::fast::subband::{KinkPass, KinkedLeaf, KinkedShare};
 use crate::lobe::Member;
 use crate::scene::Scene;
 use crate::sonar::LeafModel;
-use crate::echo::{leaf_term, sum_terms, LeafTerm};
-use crate::fast::subband::{KinkPass, KinkedLeaf, KinkedShare};
 use multiversion::multiversion;
 use rayon::prelude::*;
-use crate::fast::nodes::BatchScratch;
-use crate::fast::finish::Direct;
-use crate::fast::plan::FastPlan;
-use crate::fast::prepared::FastSonar;
-use crate::fast::lanes::LB;
-use crate::fast::lanes::PaperLanes;
-use crate::fast::kinks::PaperRoute;
-use crate::fast::schedule::TaskCount;
-use crate::fast::finish::add_grids;
-use crate::fast::nodes::choose_nodes;
-use crate::fast::finish::finish_grids;
-use crate::fast::batch::paper_batch;
-use crate::fast::kinks::paper_route;
-use crate::fast::po::po_leaf;
-use crate::fast::pool::take_grid;
-
 
 /// The most leaves per parallel task (each task spreads into its own grid; grids are added in
 /// order).
@@ -303,7 +302,11 @@ pub(super) const KINKED_IN_TASKS_UP_TO: usize = 4;
 
 /// The windowed band spectrum of the given leaf terms by the fast method; `plan` fixes the
 /// tolerance and the largest node count (see [`choose_nodes`]).
-pub fn fast_sum_terms(sonar: &FastSonar, plan: &FastPlan, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+pub fn fast_sum_terms(
+    sonar: &FastSonar,
+    plan: &FastPlan,
+    terms: &[LeafTerm],
+) -> (Vec<f64>, Vec<f64>) {
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run on a pool thread, so that the parallel steps
         // follow one another there (from outside, each is injected into the pool and this

@@ -1,14 +1,11 @@
 //! The fast path's plan for one sonar and tolerance: the Chebyshev nodes and their tables,
 //! the Lagrange rows, the NUFFT plan; the node count a tolerance needs; the cache of plans.
+use crate::echo::{NodeTables, LANES};
 use crate::error::{invalid, Result};
-use crate::echo::{
-    NodeTables, LANES,
-};
-use crate::fast::nufft::Type1Plan;
-use std::f64::consts::PI;
-use crate::fast::prepared::FastSonar;
 use crate::fast::lanes::LB;
-
+use crate::fast::nufft::Type1Plan;
+use crate::fast::prepared::FastSonar;
+use std::f64::consts::PI;
 
 /// Largest number of interpolation nodes.
 pub const MAX_NODES: usize = 16;

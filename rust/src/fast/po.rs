@@ -1,14 +1,13 @@
 //! Physical-optics leaves in a fast pass: their factor at the nodes, the route it decides, and
 //! the spreading of one leaf.
 use crate::echo::cis_neg;
-use crate::physics::leaf;
-use crate::physics::phase::CyclesPerBin;
 use crate::echo::term::LeafTerm;
 use crate::fast::plan::FastPlan;
-use crate::fast::prepared::FastSonar;
 use crate::fast::plan::MAX_NODES;
+use crate::fast::prepared::FastSonar;
 use crate::fast::spread::spread_one;
-
+use crate::physics::leaf;
+use crate::physics::phase::CyclesPerBin;
 
 /// First positive zero of the Bessel function J1.
 const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;

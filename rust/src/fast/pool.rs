@@ -1,7 +1,6 @@
 //! Spread grids kept for reuse between calls (zeroing a kept grid costs less than a fresh
 //! allocation's page faults).
 
-
 /// Spread grids kept for reuse between calls, and their total size in bytes. A fresh grid
 /// per task (about 200 KB at the default record) cost page faults and the kernel's zeroing:
 /// ~12% of a 1e5-leaf spectrum on one thread. Zeroing a reused grid in place is cheaper.

@@ -13,21 +13,21 @@
 //! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
 //! test ([`crate::lobe::classify_candidates`]).
 
-use crate::lobe::candidates::Candidates;
+use crate::echo::term::{leaf_amp, leaf_term, LeafTerm};
+use crate::echo::{paper_regime, paper_regime_of};
 use crate::error::{Error, Result};
+use crate::fast::subband::KinkedLeaf;
+use crate::fast::FastSonar;
 use crate::fast::{
     beside_leftovers, choose_nodes_from, chunk_len, finish_grids, leftover_pass, paper_batch,
     paper_route, po_leaf, take_grid, BatchScratch, Direct, FastPlan, PaperLanes, PaperRoute,
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
-use crate::echo::{paper_regime, paper_regime_of};
+use crate::lobe::candidates::Candidates;
 use crate::lobe::{classify_candidates, classify_member, BlockView};
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
-use crate::fast::FastSonar;
 use crate::sonar::{LeafModel, TooClose};
-use crate::echo::term::{leaf_amp, leaf_term, LeafTerm};
-use crate::fast::subband::KinkedLeaf;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -323,9 +323,9 @@ pub fn fast_pulse(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::echo::spectrum::band_spectrum;
     use crate::lobe::{candidates, Search};
     use crate::sonar::{LobeRule, Sonar, SonarParams};
-    use crate::echo::spectrum::band_spectrum;
     use crate::test_util::rel_l2;
 
     /// `n` leaves in a box in front of the origin: radii 0.5 mm - 5 cm, random normals.

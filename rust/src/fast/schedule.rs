@@ -1,7 +1,6 @@
 //! Keeping a pool thread awake across the end of a parallel pass, so that the work after it
 //! starts without a futex wake (only the order of events changes, never a result).
 
-
 /// The tasks of one parallel pass, counted as they start and end, so that a pool thread left
 /// without a task before the pass is over stays awake for the work after it
 /// ([`TaskCount::run`]).

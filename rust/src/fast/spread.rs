@@ -1,10 +1,9 @@
 //! Spreading onto the NUFFT grid: the kernel weights of a leaf's offset (Horner chains, or the
 //! mirror form of an eight-tap kernel) times its strengths, added to every channel.
+use crate::fast::lanes::LB;
 use crate::fast::nufft::MAX_W;
 use crate::fast::plan::FastPlan;
-use crate::fast::lanes::LB;
 use crate::fast::plan::MAX_NODES;
-
 
 /// Add one leaf's weighted strengths to every channel. Channel `c` is a run of complex values
 /// (real, imaginary interleaved) at `grid[2 c glen..]`; the leaf adds `w_j s(c)` (`s(c)`: its
@@ -39,7 +38,13 @@ fn spread_channels<const WS2: usize>(
 /// Spread one leaf at grid index `l0`, offset `u`: its strengths `sc` (one `[re, im]` per
 /// channel) times its kernel weights.
 #[inline(always)]
-pub(super) fn spread_one(plan: &FastPlan, grid: &mut [f64], u: f64, l0: usize, sc: &[[f64; 2]; MAX_NODES]) {
+pub(super) fn spread_one(
+    plan: &FastPlan,
+    grid: &mut [f64],
+    u: f64,
+    l0: usize,
+    sc: &[[f64; 2]; MAX_NODES],
+) {
     let (p, glen, h) = (plan.p, plan.nufft.grid_len(), &plan.nufft.horner[..]);
     let s = |c: usize| sc[c];
     match plan.nufft.w {

@@ -25,14 +25,14 @@
 //! sub-bands are added into the band in order; a [`KinkPass`]'s tasks are those of the first
 //! pass (a function of the leaf count), added in task order.
 
+use crate::echo::term::LeafTerm;
 use crate::error::Result;
+use crate::fast::FastSonar;
 use crate::fast::{
     choose_nodes_from, chunk_len, fast_sum_fixed, finish_grids, spread_task, Direct, FastPlan,
     K_FACTOR_TOL,
 };
-use crate::fast::FastSonar;
 use crate::sonar::{LeafModel, Sonar, Window};
-use crate::echo::term::LeafTerm;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -330,9 +330,9 @@ fn top_bin_magnitude(sonar: &FastSonar, tol: f64, t: &LeafTerm) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::absorption::Atmosphere;
-    use crate::echo::{paper_regime, PaperRegime};
     use crate::echo::spectrum::sum_terms;
+    use crate::echo::{paper_regime, PaperRegime};
+    use crate::physics::absorption::Atmosphere;
     use crate::test_util::{rel_l2_pair as rel_l2, sonar_with, uniforms};
 
     fn sonar(atm: Option<Atmosphere>, window: Window) -> FastSonar {

@@ -1,14 +1,13 @@
 //! The exact test for a block of up to [`CB`] candidates at once (lanes): ranges, angles, gains
 //! and incidence by branch-free polynomial code, with the cases near a boundary left to
 //! [`classify`].
+use crate::lobe::members::classify_member;
+use crate::lobe::members::Member;
+use crate::math::vmath::{atan2_from_ratio, atan2_ratio, exp_nonpos};
 use crate::physics::pose::{cross, Pose, V3};
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, LobeRule, Sonar};
-use crate::math::vmath::{atan2_from_ratio, atan2_ratio, exp_nonpos};
 use std::f64::consts::PI;
-use crate::lobe::members::Member;
-use crate::lobe::members::classify_member;
-
 
 /// Relative window around the detectable reach in which the fast decision defers to the libm
 /// test. The fast gain errs by ~1e-13 relative at worst (exp of arguments up to 700).

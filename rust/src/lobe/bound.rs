@@ -1,11 +1,10 @@
 //! The conservative test of a BVH node's box against a pose's lobe, with a cheap angular
 //! pre-test for circular-enough beams.
+use crate::math::vmath::atan2_fast;
 use crate::physics::pose::{cross, dot, norm, sub, Pose, V3};
 use crate::sonar::{LobeRule, Sonar};
-use crate::math::vmath::atan2_fast;
 use multiversion::multiversion;
 use std::f64::consts::{FRAC_PI_2, PI};
-
 
 /// Smallest |wrap(az - az0)| interval pieces for `az` in `[azc - h, azc + h]`: returns up to
 /// two intervals of `daz` inside [-pi, pi].

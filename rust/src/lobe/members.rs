@@ -1,18 +1,17 @@
 //! The counting leaves of a pose ([`members`]) and the range of the farthest one: the exact
 //! test over the candidates in parallel chunks.
 use crate::error::{Error, Result};
+use crate::lobe::block::classify_block;
+use crate::lobe::block::CB;
+use crate::lobe::rule::classify;
+use crate::lobe::rule::Decision;
+use crate::lobe::walk::candidates;
 use crate::physics::pose::{cross, dot, norm, Pose, V3};
 use crate::scene::Scene;
 use crate::sonar::{Sonar, TooClose};
 use multiversion::multiversion;
 use rayon::prelude::*;
 use std::f64::consts::PI;
-use crate::lobe::block::CB;
-use crate::lobe::rule::Decision;
-use crate::lobe::block::classify_block;
-use crate::lobe::rule::classify;
-use crate::lobe::walk::candidates;
-
 
 /// One counting leaf: its index, range, two-way gain and incidence angle `beta` in [0, pi/2].
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,28 +5,28 @@
 
 pub mod block;
 pub mod bound;
+pub mod candidates;
 pub mod members;
 pub mod rule;
 pub mod walk;
-pub mod candidates;
 
-pub use rule::LeafView;
-pub use rule::Decision;
-pub use rule::classify;
-pub use bound::BoxTest;
-pub use bound::AngularBound;
-pub use bound::test_box;
-pub use walk::{bvh_candidates, candidates};
-pub use members::Member;
-pub use members::incidence;
-pub use members::Search;
-pub(crate) use block::CB;
-pub(crate) use block::BlockView;
 pub(crate) use block::classify_candidates;
+pub(crate) use block::BlockView;
+pub(crate) use block::CB;
+pub use bound::test_box;
+pub use bound::AngularBound;
+pub use bound::BoxTest;
 pub(crate) use members::classify_member;
+pub use members::farthest_member_range;
+pub use members::incidence;
 pub use members::members;
 pub use members::members_of;
-pub use members::farthest_member_range;
+pub use members::Member;
+pub use members::Search;
+pub use rule::classify;
+pub use rule::Decision;
+pub use rule::LeafView;
+pub use walk::{bvh_candidates, candidates};
 
 #[cfg(test)]
 mod tests;

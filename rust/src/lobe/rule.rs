@@ -2,7 +2,6 @@
 use crate::physics::pose::{dot, sub, Pose, V3};
 use crate::sonar::{LobeRule, Sonar};
 
-
 /// A leaf seen from a pose: range (m), unit direction, azimuth and elevation (rad), two-way gain.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafView {

@@ -1,14 +1,13 @@
 //! The BVH walk of one pose: the candidate leaves (a superset of the counting ones) in
 //! traversal order, the top levels split into parallel tasks.
+use crate::lobe::bound::test_box;
+use crate::lobe::bound::AngularBound;
+use crate::lobe::bound::BoxTest;
+use crate::lobe::candidates::Candidates;
+use crate::lobe::members::Search;
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::Sonar;
-use crate::lobe::bound::AngularBound;
-use crate::lobe::bound::BoxTest;
-use crate::lobe::bound::test_box;
-use crate::lobe::candidates::Candidates;
-use crate::lobe::members::Search;
-
 
 /// Subtrees with at most this many leaves are not bounded: all their leaves become candidates
 /// (the exact test rejects the rest at a few nanoseconds each; a node test costs ~0.2 us).

@@ -64,6 +64,12 @@ impl Atmosphere {
                     * (0.01275 * (-2239.1 / t).exp() / (fro + f2 / fro)
                         + 0.1068 * (-3352.0 / t).exp() / (frn + f2 / frn)))
     }
+
+    /// The two-way amplitude absorption in nepers per metre of range at frequency `f` (Hz):
+    /// `10^(-alpha 2r / 20) = exp(-(alpha ln(10) / 10) r)`, alpha in dB per metre.
+    pub fn nepers_per_m(&self, f: f64) -> f64 {
+        self.alpha_db_per_m(f) * std::f64::consts::LN_10 / 10.0
+    }
 }
 
 #[cfg(test)]

@@ -1,13 +1,12 @@
 //! A validated sonar ([`Sonar`]): its parameters checked, and the quantities derived from them
 //! once (band bins, frequencies, wavenumbers, window, absorption per bin, detection constant,
 //! range limit).
-use crate::physics::beam::GaussianBeam;
 use crate::error::{invalid, Result};
-use std::f64::consts::PI;
+use crate::physics::beam::GaussianBeam;
 use crate::sonar::params::LobeRule;
 use crate::sonar::params::SonarParams;
 use crate::sonar::params::Window;
-
+use std::f64::consts::PI;
 
 /// `round(x)` with halves away from zero (MATLAB's `round`), for non-negative `x`.
 #[inline]
@@ -23,8 +22,7 @@ fn band_wavenumber_at(p: &SonarParams, k0: usize, x: f64) -> f64 {
 /// Absorption in nepers per metre of range at the fractional band-bin position `x`.
 fn band_atten_at(p: &SonarParams, k0: usize, x: f64) -> f64 {
     p.atmosphere.map_or(0.0, |a| {
-        a.alpha_db_per_m((k0 as f64 + x) * p.fs / p.n_samples as f64) * std::f64::consts::LN_10
-            / 10.0
+        a.nepers_per_m((k0 as f64 + x) * p.fs / p.n_samples as f64)
     })
 }
 
@@ -170,11 +168,7 @@ impl Sonar {
             None => record_range,
         };
         let atten_per_m = match p.atmosphere {
-            // 10^(-alpha 2r / 20) = exp(-alpha ln(10) / 10 * r)
-            Some(atm) => freqs
-                .iter()
-                .map(|&f| atm.alpha_db_per_m(f) * std::f64::consts::LN_10 / 10.0)
-                .collect(),
+            Some(atm) => freqs.iter().map(|&f| atm.nepers_per_m(f)).collect(),
             None => Vec::new(),
         };
         Ok(Sonar {

@@ -5,10 +5,10 @@
 pub mod band;
 pub mod params;
 
-pub use params::LobeRule;
-pub use params::LeafModel;
-pub use params::Window;
-pub use params::TooClose;
-pub use params::SonarParams;
 pub use band::round_half_up;
 pub use band::Sonar;
+pub use params::LeafModel;
+pub use params::LobeRule;
+pub use params::SonarParams;
+pub use params::TooClose;
+pub use params::Window;

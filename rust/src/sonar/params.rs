@@ -1,8 +1,7 @@
 //! The sonar's parameters as given (MODEL.md sections 2-5), and MODEL.md's defaults.
+use crate::error::Result;
 use crate::physics::absorption::Atmosphere;
 use crate::physics::beam::GaussianBeam;
-use crate::error::Result;
-
 
 /// Which leaves count (MODEL.md section 3).
 #[derive(Clone, Copy, Debug, PartialEq)]
