@@ -52,8 +52,8 @@ fn po_extension_nodes<const ATTEN: bool>(
     for i in 0..LANES {
         x[i] = 2.0 * (k[i] * t.radius) * t.sin_beta;
     }
-    // (loops, not `array::from_fn`: its closure was compiled outside the multiversioned caller,
-    // where `mul_add` is a library call)
+    // (loops, not `array::from_fn`: its closure can be compiled outside the multiversioned
+    // caller, where `mul_add` is a library call)
     let mut jinc = [0.0; LANES];
     if x.iter().all(|&x| x >= J1_EDGES[0]) {
         // leaves whose `g` oscillates across the band (the common case of `j1` per bin)
@@ -96,8 +96,8 @@ fn po_extension_nodes<const ATTEN: bool>(
 /// `|g|` ([`po_extension`]) at the bins `j0..j0 + LANES` of a block that failed its checks:
 /// vectorised ([`j1_hankel`]) where every lane's `x` is at least 8 (the leaves whose `g`
 /// oscillates across the band), otherwise libm's `j1` lane by lane. (Apart from
-/// [`po_extension_nodes`]: with its other intervals inlined here, this loop ran 20 % slower
-/// for 2 cm leaves.)
+/// [`po_extension_nodes`], so that this loop stays small: the other intervals inlined here
+/// slow it for leaves of a few centimetres.)
 #[inline(always)]
 fn po_extension_bins<const ATTEN: bool>(tab: &BandTables, t: &LeafTerm, j0: usize) -> [f64; LANES] {
     let (k, inv_k): (&[f64; LANES], &[f64; LANES]) = (lanes(&tab.k, j0), lanes(&tab.inv_k, j0));

@@ -9,7 +9,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 /// The first bin in `lo..=hi` where the paper model's `L` is nonzero (`B(c) beta < pi/2`;
 /// `B` falls with k, so the dead bins come first), for `ap = radius^-0.9065`; `lo` when `L > 0`
 /// there already, `hi + 1` when `L = 0` throughout. (Inlined into the multiversioned kernels:
-/// compiled apart, its `mul_add` and `ceil` were library calls.)
+/// compiled apart, its `mul_add` and `ceil` would be library calls.)
 #[inline(always)]
 pub(crate) fn first_live_bin(tab: &BandTables, ap: f64, beta: f64, lo: usize, hi: usize) -> usize {
     let x = |j: usize| PAPER_B1.mul_add(tab.kp[j] * ap, PAPER_B0) * beta;

@@ -54,8 +54,8 @@ pub fn sum_terms_unwindowed(sonar: &Prepared, terms: &[LeafTerm]) -> (Vec<f64>, 
         chunk_sum(sonar, terms, &mut re, &mut im);
     } else {
         // One set of partial sums for the whole call, zeroed again for each batch: allocated
-        // afresh per batch (5 MB), they went back to the system and came again as new pages,
-        // and the page faults cost 5-15 % of the sum, depending on the heap's history.
+        // afresh per batch (5 MB), they would go back to the system and come again as new
+        // pages, at the cost of page faults.
         let mut partials: Vec<(Aligned, Aligned)> = Vec::new();
         for batch in terms.chunks(LEAF_CHUNK * BATCH) {
             let n = batch.len().div_ceil(LEAF_CHUNK);

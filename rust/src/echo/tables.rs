@@ -55,7 +55,7 @@ pub struct BandTables {
 /// `kp` through four Chebyshev points of its range, in Newton's form, found on the table
 /// (linear between bins). For [`first_live_bin`]'s first guess: over a 60-80 kHz band it
 /// lands within a bin of the crossing, where a chord and a Newton step on the table cost
-/// two dependent divisions and four dependent loads (~1.3 % of a 1e6-leaf pulse).
+/// two dependent divisions and four dependent loads.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BinOfKp {
     /// The points (in `kp`) and the divided differences of the bin through them.

@@ -23,9 +23,9 @@ use crate::physics::phase::CyclesPerBin;
 /// half its budget (`KINK_FLOOR scale > tol live`) is summed exactly: over the whole band
 /// when a first pass finds it (sub-bands would meet the same floor, and their exact sums round
 /// differently from the band's by ~1e-12 of such a leaf), over the sub-band when a sub-band
-/// does. Measured on 20,000 single leaves (radii 3-90 mm, incidence 0-1.5 rad, ranges
-/// 0.5-10 m) at `tol = 1e-12`: the worst error against the exact sum was 3.4 tol without this
-/// term and 0.24 tol with it (the same for 1e-15 ... 1e-14). It matters only near
+/// does. On 20,000 single leaves (radii 3-90 mm, incidence 0-1.5 rad, ranges 0.5-10 m) at
+/// `tol = 1e-12` the worst error against the exact sum is 0.24 tol with this term and 3.4 tol
+/// without it (the same for 1e-15 ... 1e-14). It matters only near
 /// `tol = 1e-12`: at 1e-6 a leaf fails it only where its live part is under ~1e-8 of its
 /// scale. (The exact sum has the same floor, ~1e-12 of such a leaf against mpmath: see the
 /// README.)
@@ -136,7 +136,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         u[i] = l0f[i] - left;
     }
     // Strengths (node values times the phase), lanes = leaves, then interleaved for the
-    // spreading (a loop writing `sc` directly was vectorised over nodes, with gathers and
+    // spreading (a loop writing `sc` directly is vectorised over nodes, with gathers and
     // scatters).
     for (q, row) in sc.iter_mut().enumerate().take(p) {
         let (mut re, mut im) = ([0.0; LB], [0.0; LB]);
@@ -179,7 +179,7 @@ pub(crate) fn paper_batch<const ATTEN: bool>(
         live[i] = true;
     }
     // (integers below 2^51 in size, finite as the ranges are, converted exactly by the
-    // 1.5 2^52 shift: vector adds, where `as i64`, saturating, was scalar)
+    // 1.5 2^52 shift: vector adds, where `as i64`, saturating, is scalar)
     const SHIFT: f64 = 6_755_399_441_055_744.0;
     let pad = plan.nufft.pad as f64;
     let l0: [usize; LB] = std::array::from_fn(|i| {

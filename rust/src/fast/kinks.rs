@@ -63,7 +63,7 @@ pub(super) fn add_interpolant(
     let k0 = sonar.tables.k0;
     // phases advance by LB bins per block (a rotation), re-anchored exactly every ANCHOR
     // blocks; an anchor takes each lane's phase directly, lanes = bins (a chain of one-bin
-    // rotations for the lanes' offsets was ~120 cycles of latency per call)
+    // rotations for the lanes' offsets would be a long chain of latency per call)
     const ANCHOR: usize = 16;
     let (rr, ri) = cis_neg_cycles(cq.frac_at(LB as f64));
     let mut m0 = lo;

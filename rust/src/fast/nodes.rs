@@ -22,8 +22,7 @@ use std::f64::consts::PI;
 pub const SHORT_SERIES_TOL: f64 = 1e-9;
 /// From this tolerance up, node values use the shortest series: relative errors below 1e-8
 /// (erf 1.9e-9, cos 6.6e-10, exp 7.0e-9, all tested), 2.5e-8 after interpolation, still
-/// eight times under the `tol / 5` budget. (A term more in each, errors below 1e-9, was 1.5 %
-/// slower at 1e5 leaves; shorter sin and cos of the phase gained nothing.)
+/// eight times under the `tol / 5` budget; a term more in each would only cost time.
 pub const LOW_SERIES_TOL: f64 = 1e-6;
 
 /// [`paper_nodes_p`] at the precision the plan's tolerance needs.
@@ -51,7 +50,7 @@ pub(super) fn paper_nodes<const ATTEN: bool>(
 /// Work arrays of the paper model's node values and strengths for one batch (lanes = leaves,
 /// rows = nodes), made once per task and reused by every batch: rows past the plan's node
 /// count are never read, so nothing is zeroed per batch (zeroing and returning these 2 KB
-/// arrays by value cost ~7% of a fast pulse).
+/// arrays by value would cost a noticeable share of a fast pulse).
 pub(crate) struct BatchScratch {
     /// The erf's arguments, its Taylor coefficients and its values at the nodes.
     pub(super) zz: [[f64; LB]; MAX_NODES],
@@ -108,7 +107,8 @@ pub(super) fn erf_at_nodes<const N: usize, const K: usize>(
         fits &= half <= ERF_TAYLOR_REACH * (zc[i].abs() + 1.5);
     }
     if !fits {
-        // the old way: groups of three nodes, so that their Clenshaw chains interleave
+        // the erf at every node: groups of three nodes, so that their Clenshaw chains
+        // interleave
         const NG: usize = 3;
         for q0 in (0..p).step_by(NG) {
             let mut zz = [0.0; NG * LB];
@@ -323,7 +323,7 @@ pub(crate) fn choose_nodes_from(sonar: &FastSonar, plan: &FastPlan, sample: &[&L
     // Expected cost per leaf of P nodes (in units of about 1 ns): node values and spreading grow
     // with P; a leaf that needs more goes to a second pass at the plan's full node count.
     let node_cost = |q: usize| q as f64 * (8.0 + 0.5 * plan.nufft.w as f64);
-    // (measured: a deferred leaf costs about twice a full-count leaf, plus its copy)
+    // (a deferred leaf costs about twice a full-count leaf, plus its copy)
     let second_pass = 2.0 * node_cost(p) + 100.0;
     (2..=p)
         .min_by(|&x, &y| {

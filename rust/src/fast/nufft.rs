@@ -290,7 +290,7 @@ impl Type1Plan {
             grid[pad + j] += hi;
         }
         let g = &mut grid[pad..pad + nf];
-        // (the scratch is kept per thread: a fresh one per call was an allocation and a
+        // (the scratch is kept per thread: a fresh one per call would be an allocation and a
         // zeroing per channel)
         FFT_SCRATCH.with_borrow_mut(|scratch| {
             scratch.resize(self.fft.get_inplace_scratch_len(), Complex64::new(0.0, 0.0));

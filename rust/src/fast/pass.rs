@@ -33,16 +33,14 @@ pub(super) const SUB_CHUNK: usize = 1024;
 
 /// Leaves per task per point of its spread grid, at least (where there are leaves enough for
 /// four tasks): each task zeroes its own grid and the grids are summed, which at fewer leaves
-/// per point costs more than a few percent of the spreading (at 1e5 leaves and the default
-/// record, 14 tasks of 7168 leaves took 2.48 ms, 4 tasks of 25,600 2.32 ms on 2 threads).
+/// per point costs more than a few percent of the spreading.
 pub(super) const LEAVES_PER_GRID_POINT: usize = 10;
 
 /// Leaves per parallel task for `n` leaves spread onto grids of `grid_points` points: 4 to 16
 /// tasks, as many as keep [`LEAVES_PER_GRID_POINT`], of about 4096 to [`FAST_CHUNK`] leaves (a
 /// function of `n` and the grid only, so that results do not depend on the thread count).
 /// The tasks are of equal length but for the last, which is at most one leaf per task
-/// shorter: a short last task leaves a thread idle at the end (16 tasks of 63,488 for 1e6
-/// leaves, the last 47,680, left one thread idle ~0.6 ms of a 25 ms pulse).
+/// shorter: a much shorter last task would leave a thread idle at the end of the pass.
 pub fn chunk_len(n: usize, grid_points: usize) -> usize {
     let tasks = (n / (LEAVES_PER_GRID_POINT * grid_points.max(1))).clamp(4, 16);
     let len = n.div_ceil(tasks).clamp(4096, FAST_CHUNK);
@@ -63,10 +61,8 @@ struct Partial {
     exact: Vec<usize>,
 }
 
-/// How far ahead (in terms) a first pass prefetches its terms. Without it the batches waited
-/// on memory for the 64-byte terms (`PaperLanes::push` was 28 % of a single-thread profile at
-/// 1e5 leaves); with it `fast_sum_terms` ran 16 % (1e5 leaves) and 25 % (1e6) faster on two
-/// threads. 64 and 256 measured the same as 128.
+/// How far ahead (in terms) a first pass prefetches its terms: without it the batches wait on
+/// memory for the 64-byte terms (the hardware prefetcher does not run far enough ahead).
 const TERMS_AHEAD: usize = 128;
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
@@ -293,11 +289,9 @@ pub(crate) fn beside_leftovers(
 
 /// A first pass of at most this many tasks spreads its kinked leaves in its tasks
 /// ([`KinkPass`]); a longer one leaves them to a later pass. With few tasks the later pass's
-/// sub-bands are a few small sums after the tasks, run beside the first pass's transforms on
-/// two threads: at 1e5 leaves (4 tasks) taking them into the tasks cut `fast_sum_terms` from
-/// 1.91 to 1.72 ms. With more, the later pass fills the threads while the transforms run, and
-/// in the tasks they cost more (3e5 leaves, 12 tasks: 5.3 against 6.2 ms; 1e6: 16.9 against
-/// 18.1 ms).
+/// sub-bands are a few small sums after the tasks, run mostly alone, so they cost less in the
+/// tasks. With more, the later pass fills the threads while the transforms run, and in the
+/// tasks they cost more.
 pub(super) const KINKED_IN_TASKS_UP_TO: usize = 4;
 
 /// The windowed band spectrum of the given leaf terms by the fast method; `plan` fixes the
@@ -310,8 +304,8 @@ pub fn fast_sum_terms(
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run on a pool thread, so that the parallel steps
         // follow one another there (from outside, each is injected into the pool and this
-        // thread sleeps and wakes in between: at 1e5 leaves, ~30 us before the tasks start
-        // and ~40 us after they end). The call is then the pool's only work, so its first
+        // thread sleeps and wakes in between, before the tasks start and after they end).
+        // The call is then the pool's only work, so its first
         // pass keeps a thread awake for the transforms after it ([`TaskCount`]).
         return rayon::scope(|_| fast_sum_terms_in(sonar, plan, terms, true));
     }

@@ -2,8 +2,8 @@
 //! allocation's page faults).
 
 /// Spread grids kept for reuse between calls, and their total size in bytes. A fresh grid
-/// per task (about 200 KB at the default record) cost page faults and the kernel's zeroing:
-/// ~12% of a 1e5-leaf spectrum on one thread. Zeroing a reused grid in place is cheaper.
+/// per task (about 200 KB at the default record) costs page faults and the kernel's zeroing;
+/// zeroing a reused grid in place is cheaper.
 static GRID_POOL: std::sync::Mutex<(Vec<Vec<f64>>, usize)> = std::sync::Mutex::new((Vec::new(), 0));
 /// The most bytes of grids kept in [`GRID_POOL`].
 const GRID_POOL_BYTES: usize = 64 << 20;

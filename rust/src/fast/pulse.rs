@@ -34,9 +34,9 @@ use rayon::prelude::*;
 /// Candidates sampled to choose the node count (it uses at most 128 smooth members): runs of
 /// [`SAMPLE_RUN`] consecutive candidates, spread evenly over the list.
 const SAMPLE: usize = 256;
-/// Candidates per run of the sample. Single candidates at a stride of thousands took 150-230 us
-/// of a 1e6-leaf pulse before its tasks could start (their reads missed: 176 us cold, 30 us for
-/// the same call repeated; prefetching them first did not help), runs of 16 40-65 us.
+/// Candidates per run of the sample. Single candidates at a stride of thousands each miss the
+/// caches, before the pulse's tasks can start (prefetching them does not help); runs of
+/// consecutive candidates share their cache lines.
 const SAMPLE_RUN: usize = 16;
 
 /// One chunk's share.
@@ -143,8 +143,8 @@ fn pulse_chunk(
         };
         // A block is a batch as it stands where it can be (`ready_whole`); otherwise each
         // counting leaf goes its route.
-        // (loops, not `map`: the generic `map` was an out-of-line call, compiled for baseline
-        // x86-64, ~2 % of a 1e6-leaf pulse)
+        // (loops, not `map`: the generic `map` can be an out-of-line call, compiled for
+        // baseline x86-64)
         let (mut out, mut inside) = ([false; LB], [false; LB]);
         for k in 0..LB {
             out[k] = v.verdict[k] == 0;
@@ -225,7 +225,7 @@ pub fn fast_pulse(
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run the pulse on a pool thread, so that its parallel
         // steps follow one another there (from outside, each step is injected into the pool
-        // and this thread sleeps and wakes in between: ~0.6 ms of a 1e6-leaf pulse).
+        // and this thread sleeps and wakes in between).
         return rayon::scope(|_| fast_pulse(scene, sonar, plan, pose, pose_index, cands));
     }
     // The node count, from a sample of the counting leaves (see `fast::choose_nodes`).

@@ -5,14 +5,12 @@
 /// without a task before the pass is over stays awake for the work after it
 /// ([`TaskCount::run`]).
 ///
-/// Left to itself, a rayon worker idle for ~10 us sleeps; the work after a pass (the
-/// transforms beside the leftovers, in parallel) then waited ~20 us for the futex wake and
-/// ~30-50 us more for the sleeper to start: at 1e5 leaves in most calls, where the tasks end
-/// tens of microseconds apart (a 1e5-leaf `fast_sum_terms` took 1.79-1.87 ms with it against
-/// 1.96-2.19 ms without, in a timeline of three calls each). Only the order of events
-/// changes, never a result. (The fused pulse does without: its tail is the kinked pass,
-/// ~1.7 ms at 1e6 leaves, beside which a wake costs little, and with a thread kept awake it
-/// measured 2-3 % slower.)
+/// Left to itself, a rayon worker idle for some microseconds sleeps; the work after a pass
+/// (the transforms beside the leftovers, in parallel) then waits for the futex wake and for
+/// the sleeper to start, which matters at 1e5 leaves, where the tasks end tens of
+/// microseconds apart. Only the order of events changes, never a result. (The fused pulse
+/// does without: its tail is the kinked pass, long beside a wake, and a thread kept awake
+/// there only takes a core from it.)
 pub(super) struct TaskCount {
     n: usize,
     started: std::sync::atomic::AtomicUsize,
@@ -69,8 +67,8 @@ impl TaskCount {
         } else if self.owner.is_some() && here == self.owner && self.started.load(Relaxed) == self.n
         {
             // The pass's own thread, its last task done while others still run: wait for them
-            // awake (a pool thread waiting for a job slept and was woken 17-68 us after the
-            // last task ended, in about half of the 1e5-leaf calls of a timeline).
+            // awake (a pool thread waiting for a job may sleep and be woken tens of
+            // microseconds after the last task ends).
             spin_until(|| self.done.load(Acquire) >= self.n);
         }
         out

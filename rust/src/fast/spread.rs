@@ -65,7 +65,7 @@ pub(super) fn spread_one(
 
 /// The kernel weights of four points at offsets `u` in [0, 1) (zero past the kernel's width):
 /// four independent Horner chains, eight taps at a time (the shape the compiler keeps in
-/// vector registers; a loop over all `WS` taps was scalarised at sixteen).
+/// vector registers; a loop over all `WS` taps is scalarised at sixteen).
 #[inline(always)]
 pub(super) fn weights4<const WS: usize>(h: &[[f64; MAX_W]], u: [f64; 4]) -> [[f64; WS]; 4] {
     let mut a = [[0.0f64; WS]; 4];

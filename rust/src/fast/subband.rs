@@ -3,8 +3,7 @@
 //! A kinked leaf's factor `max(0, g)` is zero below its first live bin `m*` and the smooth
 //! `g` above it. Over the whole band `g` needs about twice the nodes of a typical leaf, and
 //! the corner costs the interpolant evaluated bin by bin over the shorter side (up to 600
-//! bins): about a microsecond per leaf that fails a first pass's check, the bulk of a
-//! 1e6-leaf pulse's second pass before this module.
+//! bins): about a microsecond per leaf that fails a first pass's check, where many do.
 //!
 //! Here the band is cut into sub-bands of about [`SUB_BAND_BINS`] bins (at least
 //! [`MIN_SUB_BANDS`] of them), each a sonar of its own (the same bins, wavenumbers and tables;
@@ -36,8 +35,8 @@ use crate::sonar::{LeafModel, Sonar, Window};
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// Bins per sub-band, about (measured against 150: the same at 1e6 leaves, 2-3 % faster at 1e5,
-/// where each sub-band's fixed cost shows).
+/// Bins per sub-band, about (narrower sub-bands add each one's fixed cost, which shows at
+/// 1e5 leaves).
 pub const SUB_BAND_BINS: usize = 300;
 /// The fewest sub-bands a band is cut into.
 pub const MIN_SUB_BANDS: usize = 4;
@@ -148,7 +147,8 @@ impl SubBands {
 /// The sub-bands with their plans at one node count, for the kinked leaves of a fast pass:
 /// each task spreads its own onto sub-band grids of its own ([`KinkPass::spread`]), beside
 /// its share of the band, and the pass adds the tasks' shares ([`KinkPass::finish`]). (Left
-/// to a later pass, these leaves were its bulk at 1e5 leaves and ran after the band's tasks.)
+/// to a later pass, these leaves would be its bulk at 1e5 leaves and run after the band's
+/// tasks.)
 pub(crate) struct KinkPass {
     subs: Arc<SubBands>,
     plans: Vec<Arc<FastPlan>>,

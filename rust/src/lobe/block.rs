@@ -14,7 +14,7 @@ use std::f64::consts::PI;
 const AMBIGUOUS: f64 = 1e-11;
 
 /// Leaves per vector block of the fast test (16: two AVX-512 vectors per operation, so that
-/// the long dependent chains of the atan2 and exp polynomials overlap; 8 was 3% slower).
+/// the long dependent chains of the atan2 and exp polynomials overlap).
 pub(crate) const CB: usize = 16;
 
 /// What the exact test says about each lane of a block of up to [`CB`] candidates.
@@ -86,9 +86,8 @@ pub(crate) fn classify_block(
 }
 
 /// How far ahead of a run's block (in stored leaves) the lobe test prefetches the next
-/// coordinates. Measured on the 1e6-leaf box scene: 128 against 64 and 256; with it the fused
-/// pulse ran ~5 % faster (the hardware prefetcher alone left the six coordinate streams
-/// waiting on memory).
+/// coordinates: the hardware prefetcher alone leaves the six coordinate streams waiting on
+/// memory.
 const PREFETCH_AHEAD: usize = 128;
 
 /// Offsets, ranges and normals of up to [`CB`] candidates, lanes.
@@ -149,8 +148,8 @@ pub(crate) fn classify_candidates(
     for k in 0..CB {
         g.r[k] = (g.dx[k] * g.dx[k] + g.dy[k] * g.dy[k] + g.dz[k] * g.dz[k]).sqrt();
     }
-    // (a loop, not `map`: the generic `map` was an out-of-line call, compiled for baseline
-    // x86-64, in the fused pulse's AVX-512 clone)
+    // (a loop, not `map`: the generic `map` can be an out-of-line call compiled for baseline
+    // x86-64, outside the fused pulse's AVX-512 clone)
     let mut inside = [false; CB];
     for (ok, &r) in inside.iter_mut().zip(&g.r) {
         *ok = r >= sp.min_range && r <= sonar.range_limit;
@@ -184,8 +183,8 @@ pub(super) fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize)
 }
 
 /// [`classify_lanes`] into `v` (every field written). The fused pulse keeps one view per
-/// task: a view returned by value (528 bytes) was copied twice per block, each copy a call
-/// to `memcpy` after a `vzeroupper`.
+/// task: a view returned by value (528 bytes) is copied twice per block, each copy a call to
+/// `memcpy` after a `vzeroupper`.
 #[inline(always)]
 fn classify_lanes_into(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize, v: &mut BlockView) {
     let (d, u, l) = (pose.forward, pose.up, pose.left);

@@ -104,8 +104,8 @@ impl AngularBound {
 /// Conservative test of the box `[lo, hi]` against the lobe of this pose, with an optional
 /// cheap angular pre-test (see [`AngularBound`]). Its `atan2` is [`atan2_fast`] (within ~4e-16
 /// of libm's, far inside [`SLACK`]; with FMA, from the dispatch below, it costs a fraction of
-/// libm's, which took ~12 % of a 10-degree lobe query). The polynomial `cos` and `exp` of
-/// [`crate::math::vmath`], built for vector lanes, measured slower here than libm's, one at a time.
+/// libm's). `cos` and `exp` are libm's: the polynomial ones of [`crate::math::vmath`] are built
+/// for vector lanes and cost more one at a time.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 pub fn test_box(
     sonar: &Sonar,

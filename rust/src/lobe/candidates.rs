@@ -1,8 +1,8 @@
 //! A pose's candidate leaves: the stored indices that the lobe query could not rule out, in a
 //! thread-independent order, kept as runs `[lo, hi)` of consecutive indices. A scene is stored
 //! in its BVH's depth-first order, so a subtree inside the lobe is one run: a beam that takes
-//! in a million leaves gives a handful of runs, not a 4 MB list of indices (building that list
-//! took ~0.6 ms per pulse, serially).
+//! in a million leaves gives a handful of runs, not a 4 MB list of indices built serially per
+//! pulse.
 
 use std::ops::Range;
 
@@ -128,7 +128,7 @@ impl Blocks<'_> {
         let hi = self.runs[self.run].1;
         if n == CB && (hi - self.next) as usize >= CB {
             // a whole block inside the run (the lobe test then loads its leaves without a
-            // gather: ~2 % of a 1e6-leaf pulse on one thread)
+            // gather)
             let first = self.next;
             self.buf = std::array::from_fn(|j| first + j as u32);
             self.next += CB as u32;

@@ -10,12 +10,11 @@ use crate::scene::Scene;
 use crate::sonar::Sonar;
 
 /// Subtrees with at most this many leaves are not bounded: all their leaves become candidates
-/// (the exact test rejects the rest at a few nanoseconds each; a node test costs ~0.2 us).
+/// (the exact test rejects the rest at a few nanoseconds each; a node test costs far more).
 const SMALL_SUBTREE: u32 = 8;
 
 /// Levels of the BVH whose subtrees are walked as parallel tasks (up to 2^8 tasks): a beam's
-/// boundary crosses many nodes, and the walk is bound by fetching them (a detectable 30° lobe
-/// over 1e6 leaves: ~12 ms on one thread).
+/// boundary crosses many nodes, and the walk is bound by fetching them.
 const PAR_LEVELS: u32 = 8;
 /// Subtrees with fewer leaves than this are walked in one task (a narrow beam, or a small
 /// scene, gains nothing from splitting its walk).

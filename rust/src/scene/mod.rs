@@ -41,8 +41,7 @@ pub struct Scene {
 }
 
 /// 3-vectors stored as three coordinate arrays, so that a run of stored leaves loads as whole
-/// vectors (as `[f64; 3]` rows, each block of them had to be transposed first: ~5 % of a fast
-/// pulse).
+/// vectors (`[f64; 3]` rows would have to be transposed per block first).
 pub struct Xyz {
     pub x: Vec<f64>,
     pub y: Vec<f64>,
