@@ -4,9 +4,10 @@
 use batecho::error::Error;
 use batecho::fast::FastSonar;
 use batecho::lobe::{self, Search};
+use batecho::math::vec3::V3;
 use batecho::physics::absorption::Atmosphere;
 use batecho::physics::beam::GaussianBeam;
-use batecho::physics::pose::{Pose, V3};
+use batecho::physics::pose::Pose;
 use batecho::scene::Scene;
 use batecho::simulate;
 use batecho::sonar::{LeafModel, LobeRule, Sonar, SonarParams, TooClose, Window};

@@ -400,7 +400,7 @@ mod tests {
             };
             let r = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
             let e = [x[0] / r, x[1] / r, x[2] / r];
-            let t = crate::physics::pose::cross(e, [0.0, 0.0, 1.0]);
+            let t = crate::math::vec3::cross(e, [0.0, 0.0, 1.0]);
             let tn = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
             let (cb, sb) = (1.541f64.cos(), 1.541f64.sin());
             nv.push([0, 1, 2].map(|i| cb * e[i] + sb * t[i] / tn));

@@ -3,8 +3,9 @@
 //! [`classify`].
 use crate::lobe::members::classify_member;
 use crate::lobe::members::Member;
+use crate::math::vec3::{cross, V3};
 use crate::math::vmath::{atan2_from_ratio, atan2_ratio, exp_nonpos};
-use crate::physics::pose::{cross, Pose, V3};
+use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LeafModel, LobeRule, Sonar};
 use std::f64::consts::PI;

@@ -1,7 +1,8 @@
 //! The conservative test of a BVH node's box against a pose's lobe, with a cheap angular
 //! pre-test for circular-enough beams.
+use crate::math::vec3::{cross, dot, norm, sub, V3};
 use crate::math::vmath::atan2_fast;
-use crate::physics::pose::{cross, dot, norm, sub, Pose, V3};
+use crate::physics::pose::Pose;
 use crate::sonar::{LobeRule, Sonar};
 use multiversion::multiversion;
 use std::f64::consts::{FRAC_PI_2, PI};

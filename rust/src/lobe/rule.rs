@@ -1,5 +1,6 @@
 //! The exact per-leaf lobe test (MODEL.md section 3) in f64, as the reference performs it.
-use crate::physics::pose::{dot, sub, Pose, V3};
+use crate::math::vec3::{dot, sub, V3};
+use crate::physics::pose::Pose;
 use crate::sonar::{LobeRule, Sonar};
 
 /// A leaf seen from a pose: range (m), unit direction, azimuth and elevation (rad), two-way gain.

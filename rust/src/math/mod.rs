@@ -4,4 +4,5 @@
 pub mod aligned;
 pub mod erf_table;
 pub(crate) mod prefetch;
+pub mod vec3;
 pub mod vmath;

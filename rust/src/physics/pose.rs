@@ -1,37 +1,7 @@
 //! Sonar poses: a position and an orthonormal frame (forward `d`, up `u`, left `l = u × d`).
 
 use crate::error::{invalid, Result};
-
-pub type V3 = [f64; 3];
-
-#[inline(always)]
-pub fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline(always)]
-pub fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-#[inline(always)]
-pub fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline(always)]
-pub fn norm(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-#[inline(always)]
-pub fn is_finite3(a: V3) -> bool {
-    a.iter().all(|x| x.is_finite())
-}
+use crate::math::vec3::{cross, dot, is_finite3, norm, V3};
 
 /// One sonar pose. `d`, `u`, `l` are unit vectors, mutually orthogonal, right-handed
 /// (`l = u × d`), so that azimuth is positive to the left and elevation positive up.

@@ -1,7 +1,7 @@
 //! Building the mesh from the scanned text: leaf faces into disks (per patch or per face),
 //! bark polygons into triangles, with the warnings.
 use crate::error::{Error, Result};
-use crate::physics::pose::{dot, norm, V3};
+use crate::math::vec3::{dot, norm, V3};
 use crate::scene::obj::geometry::polygon_geometry;
 use crate::scene::obj::geometry::transform_positions;
 use crate::scene::obj::geometry::PolygonGeometry;

@@ -1,6 +1,6 @@
 //! Polygon geometry (area, unit normal, area centroid) and the placement of positions
 //! (up axis, scale, transform).
-use crate::physics::pose::{cross, dot, norm, sub, V3};
+use crate::math::vec3::{cross, dot, norm, sub, V3};
 use crate::scene::obj::options::ObjOptions;
 use crate::scene::obj::options::Up;
 use crate::scene::obj::options::DEGENERATE_REL_AREA;

@@ -1,6 +1,6 @@
 //! What an OBJ load is asked for ([`ObjOptions`]) and what it gives ([`ObjMesh`]).
 use crate::error::{Error, Result};
-use crate::physics::pose::{norm, V3};
+use crate::math::vec3::{norm, V3};
 use crate::scene::obj::geometry::det3;
 use crate::scene::obj::geometry::linear_row;
 

@@ -1,7 +1,7 @@
 //! Reading the files: the light pre-scan of the OBJ text (line numbers, names, corner
 //! indices), the MTL files beside it, and the positions from tobj.
 use crate::error::{Error, Result};
-use crate::physics::pose::V3;
+use crate::math::vec3::V3;
 use std::cell::RefCell;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};

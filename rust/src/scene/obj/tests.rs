@@ -1,6 +1,6 @@
 //! Tests of OBJ loading: geometry, patterns, patches, transforms, errors and warnings.
 use crate::error::{Error, Result};
-use crate::physics::pose::V3;
+use crate::math::vec3::V3;
 use crate::scene::obj::build::load_obj;
 use crate::scene::obj::geometry::polygon_geometry;
 use crate::scene::obj::names::pattern_matches;
