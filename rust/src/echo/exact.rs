@@ -139,6 +139,11 @@ impl PaperLeaf {
 /// The leaf factor `F = amp L exp(-j psi) / k [exp(-atten r)]` of the paper model on one block
 /// of lanes, from the per-bin tables `k`, `1/k`, `k^-0.9065`, `k^0.3523` (and `atten`); without
 /// `CLAMP`, its smooth extension `g` (`L = A cos(B beta)` unclamped: negative past the kink).
+///
+/// Mirrors [`crate::physics::leaf::paper`] in vector form (the powers of `c = k a` split
+/// into per-bin and per-leaf factors, polynomial erf, cos, sincos and exp); held to it by
+/// `echo::tests::smooth_and_pointwise_paths_match_libm_per_leaf` and
+/// `kinked_leaves_match_libm_with_the_kink_anywhere_in_a_block`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn paper_factor<const ATTEN: bool, const CLAMP: bool>(

@@ -25,6 +25,10 @@ const PO_SUB_BLOCK: usize = 32;
 
 /// Physical optics' smooth extension `g = amp (c^2/2) cos(beta) jinc(2 c sin(beta)) / k
 /// [exp(-atten r)]` at wavenumber `k` (rad/m): the leaf's factor is `j |g|` (`psi = -pi/2`).
+///
+/// Mirrors [`crate::physics::leaf::physical_optics`] (before its magnitude), as do
+/// [`po_extension_nodes`] and [`po_extension_bins`] in vector form; held to it by
+/// `echo::tests::physical_optics_blocks_match_libm_at_every_bin`.
 #[inline(always)]
 fn po_extension(t: &LeafTerm, k: f64, atten: f64) -> f64 {
     let c = k * t.radius;

@@ -60,6 +60,10 @@ pub(crate) fn paper_regime(tab: &BandTables, t: &LeafTerm) -> PaperRegime {
 }
 
 /// [`paper_regime`] of a leaf with `radius^-0.9065 = ap` at incidence `beta`.
+///
+/// `B(c) beta` mirrors [`crate::physics::leaf::paper`]'s (with the table's `k^-0.9065`), as
+/// in [`paper_regime_bits`] and [`first_live_bin`]; held to it by
+/// `echo::tests::paper_regimes_and_first_live_bins_agree_with_the_scalar_leaf_model`.
 #[inline(always)]
 pub(crate) fn paper_regime_of(tab: &BandTables, ap: f64, beta: f64) -> PaperRegime {
     // (`paper_regime_bits` is the same, branch-free; keep the two in step)

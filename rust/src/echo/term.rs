@@ -2,6 +2,7 @@
 //! radius powers.
 
 use crate::lobe::Member;
+use crate::physics::amplitude::echo_amplitude;
 use crate::scene::Scene;
 use crate::sonar::Sonar;
 
@@ -44,12 +45,7 @@ impl LeafTerm {
 #[inline(always)]
 pub fn leaf_amp(sonar: &Sonar, gain: f64, range: f64) -> f64 {
     let p = &sonar.params;
-    let amp = p.gain * gain;
-    if p.spreading {
-        amp / (range * range)
-    } else {
-        amp
-    }
+    echo_amplitude(p.gain, gain, range, p.spreading)
 }
 
 /// The term of a counting leaf: its amplitude, range, incidence and radius powers.

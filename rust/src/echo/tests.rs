@@ -320,3 +320,49 @@ fn smooth_path_handles_records_with_many_bins() {
     assert!(s.tables.nodes.n_blocks > 300);
     assert!(max_rel(&smooth, &exact) < 1e-12);
 }
+
+#[test]
+fn paper_regimes_and_first_live_bins_agree_with_the_scalar_leaf_model() {
+    // `paper_regime_of` and `first_live_bin` state `B(c) beta` with the table's `k^-0.9065`
+    // times the leaf's `a^-0.9065`; `physics::leaf::paper` with `c^-0.9065`. They agree but
+    // where `B(c) beta` is within rounding of pi/2 at some bin, where the leaf is skipped.
+    use crate::physics::leaf;
+    for f_lo in [60e3, 20e3] {
+        let s = sonar_with(|p| {
+            p.f_lo = f_lo;
+            p.min_ka = 0.01;
+        });
+        let tab = &s.tables;
+        let mut u = crate::test_util::uniforms(23);
+        let mut seen = [0usize; 4];
+        for _ in 0..3000 {
+            let radius = 1e-3 * 100f64.powf(u());
+            let beta = u() * FRAC_PI_2;
+            let ap = radius.powf(PAPER_BP);
+            let x: Vec<f64> = (0..tab.m)
+                .map(|j| (PAPER_B1 * (tab.k[j] * radius).powf(PAPER_BP) + PAPER_B0) * beta)
+                .collect();
+            if x.iter()
+                .any(|&x| (x - FRAC_PI_2).abs() < 1e-9 || (x - PI).abs() < 1e-9)
+            {
+                continue;
+            }
+            let live: Vec<bool> = (0..tab.m)
+                .map(|j| leaf::paper(tab.k[j] * radius, beta).0 > 0.0)
+                .collect();
+            let regime = paper_regime_of(tab, ap, beta);
+            seen[regime as usize] += 1;
+            match regime {
+                PaperRegime::Zero => assert!(live.iter().all(|&l| !l), "{radius} {beta}"),
+                PaperRegime::Smooth => assert!(live.iter().all(|&l| l), "{radius} {beta}"),
+                PaperRegime::Kinked => {
+                    let first = live.iter().position(|&l| l).expect("live at the top bin");
+                    assert!(live[first..].iter().all(|&l| l), "{radius} {beta}");
+                    assert_eq!(first_live_bin(tab, ap, beta, 0, tab.m - 1), first);
+                }
+                PaperRegime::OutOfDomain => assert!(x[0] > PI, "{radius} {beta}"),
+            }
+        }
+        assert!(seen[..3].iter().all(|&n| n > 0), "{seen:?}");
+    }
+}

@@ -162,6 +162,10 @@ pub(super) fn erf_at_nodes<const N: usize, const K: usize>(
 /// `F(t_q) = amp L exp(-j psi) / k [exp(-atten r)]` at each of the plan's nodes, times `k_q`
 /// below [`K_FACTOR_TOL`] (the plan's `node_scale`); `LEVEL`
 /// selects the series: 0 full (~1e-16), 1 short (~1e-12), 2 shortest (~1e-9).
+///
+/// Mirrors [`crate::physics::leaf::paper`] in vector form (unclamped, as
+/// [`crate::echo::exact`]'s `paper_factor` without `CLAMP`); held to it by
+/// `fast::tests::paper_node_values_match_the_scalar_leaf_model_at_each_level`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn paper_nodes_p<const ATTEN: bool, const LEVEL: u8>(

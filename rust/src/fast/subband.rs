@@ -307,6 +307,10 @@ fn band_sum(
 /// lower bound of its peak over the band, the scale of its error budget (the full band's check
 /// measures the error against the peak on the live side; a sub-band near the corner sees only
 /// small values). Channels carry `k F` below [`K_FACTOR_TOL`], `F` above.
+///
+/// Mirrors [`crate::physics::leaf::paper`]'s `L` at one bin (with the table's `k^-0.9065`);
+/// held to the exact sum by
+/// `fast::subband::tests::the_error_floor_is_the_leafs_channel_value_at_the_last_bin`.
 #[inline(always)]
 fn top_bin_magnitude(sonar: &FastSonar, tol: f64, t: &LeafTerm) -> f64 {
     use crate::physics::leaf::{PAPER_A0, PAPER_A2, PAPER_B0, PAPER_B1};

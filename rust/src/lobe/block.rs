@@ -186,6 +186,12 @@ pub(super) fn classify_lanes(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize)
 /// [`classify_lanes`] into `v` (every field written). The fused pulse keeps one view per
 /// task: a view returned by value (528 bytes) is copied twice per block, each copy a call to
 /// `memcpy` after a `vzeroupper`.
+///
+/// Mirrors [`crate::lobe::rule::classify`] (the two-way gain of
+/// [`crate::physics::beam::GaussianBeam::gain`], the reach `r^2 <= K G` of
+/// [`crate::physics::amplitude::detection_constant`], the cone) and, in
+/// [`incidence_lanes`], [`crate::physics::leaf::incidence`]; held to them by
+/// `lobe::tests::block_views_match_the_libm_test_to_a_few_ulps`.
 #[inline(always)]
 fn classify_lanes_into(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize, v: &mut BlockView) {
     let (d, u, l) = (pose.forward, pose.up, pose.left);
@@ -326,7 +332,8 @@ fn classify_lanes_into(sonar: &Sonar, pose: &Pose, g: &Gathered, n: usize, v: &m
     }
 }
 
-/// `|e x n|` and `e . n` of each lane, with `e(k)` the lane's direction (any scale).
+/// `|e x n|` and `e . n` of each lane, with `e(k)` the lane's direction (any scale), as
+/// [`crate::physics::leaf::incidence`] forms them.
 #[inline(always)]
 fn incidence_lanes(
     e: impl Fn(usize) -> V3,

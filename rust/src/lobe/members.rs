@@ -6,13 +6,12 @@ use crate::lobe::block::CB;
 use crate::lobe::rule::classify;
 use crate::lobe::rule::Decision;
 use crate::lobe::walk::candidates;
-use crate::math::vec3::{cross, dot, norm, V3};
+use crate::physics::leaf::incidence;
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{Sonar, TooClose};
 use multiversion::multiversion;
 use rayon::prelude::*;
-use std::f64::consts::PI;
 
 /// One counting leaf: its index, range, two-way gain and incidence angle `beta` in [0, pi/2].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,17 +24,6 @@ pub struct Member {
     /// conditioned at normal and grazing incidence, where `cos(atan2(...))` is not).
     pub cos_beta: f64,
     pub sin_beta: f64,
-}
-
-/// Incidence angle between the unit direction `e` and the unit normal `n`, folded to [0, pi/2],
-/// with its cosine `|e . n|` and sine `|e x n|`. The angle is `atan2(|e x n|, e . n)`, which
-/// stays accurate at normal and grazing incidence.
-#[inline]
-pub fn incidence(e: V3, n: V3) -> (f64, f64, f64) {
-    let s = norm(cross(e, n));
-    let c = dot(e, n);
-    let b = s.atan2(c);
-    (b.min(PI - b), c.abs().min(1.0), s.min(1.0))
 }
 
 /// How the candidates are found; the result is the same either way.

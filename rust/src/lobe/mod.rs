@@ -18,7 +18,6 @@ pub use bound::AngularBound;
 pub use bound::BoxTest;
 pub(crate) use members::classify_member;
 pub use members::farthest_member_range;
-pub use members::incidence;
 pub use members::members;
 pub use members::members_of;
 pub use members::Member;

@@ -2,7 +2,8 @@
 //! and exact (libm). `c = k a`, `beta` the incidence angle in [0, pi/2] (0 faces the sonar).
 //! Both return `(L, psi)`; a leaf contributes `L exp(-j psi) / k` per unit gain.
 
-use std::f64::consts::FRAC_PI_2;
+use crate::math::vec3::{cross, dot, norm, V3};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 pub const PAPER_A2: f64 = 0.5003;
 pub const PAPER_A0: f64 = 0.6867;
@@ -46,4 +47,15 @@ pub fn jinc(x: f64) -> f64 {
 pub fn physical_optics(c: f64, cos_beta: f64, sin_beta: f64) -> (f64, f64) {
     let x = 2.0 * c * sin_beta;
     (c * c / 2.0 * cos_beta * jinc(x).abs(), -FRAC_PI_2)
+}
+
+/// Incidence angle between the unit direction `e` and the unit normal `n`, folded to [0, pi/2],
+/// with its cosine `|e . n|` and sine `|e x n|`. The angle is `atan2(|e x n|, e . n)`, which
+/// stays accurate at normal and grazing incidence.
+#[inline]
+pub fn incidence(e: V3, n: V3) -> (f64, f64, f64) {
+    let s = norm(cross(e, n));
+    let c = dot(e, n);
+    let b = s.atan2(c);
+    (b.min(PI - b), c.abs().min(1.0), s.min(1.0))
 }

@@ -2,6 +2,7 @@
 //! leaf scattering, the round-trip phase, atmospheric absorption.
 
 pub mod absorption;
+pub mod amplitude;
 pub mod beam;
 pub mod leaf;
 pub mod phase;

@@ -2,6 +2,7 @@
 //! once (band bins, frequencies, wavenumbers, window, absorption per bin, detection constant,
 //! range limit).
 use crate::error::{invalid, Result};
+use crate::physics::amplitude::detection_constant;
 use crate::physics::beam::GaussianBeam;
 use crate::sonar::params::LobeRule;
 use crate::sonar::params::SonarParams;
@@ -144,10 +145,7 @@ impl Sonar {
                 pos("r0", r0)?;
                 pos("p0", p0)?;
                 pos("p_ref", p_ref)?;
-                (
-                    r0 * r0 * p0 / (10f64.powf(threshold_db / 20.0) * p_ref),
-                    -1.0,
-                )
+                (detection_constant(threshold_db, r0, p0, p_ref), -1.0)
             }
             LobeRule::Cone { half_angle } => {
                 if !(half_angle.is_finite() && half_angle > 0.0 && half_angle < PI) {

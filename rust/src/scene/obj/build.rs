@@ -13,7 +13,7 @@ use crate::scene::obj::options::Per;
 use crate::scene::obj::scan::obj_err;
 use crate::scene::obj::scan::positions_via_tobj;
 use crate::scene::obj::scan::prescan;
-use crate::scene::obj::scan::Element;
+use crate::scene::obj::scan::{Element, Scan};
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::f64::consts::PI;
@@ -124,45 +124,95 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
     let mut warnings = Vec::new();
     let mut positions = positions_via_tobj(text, &file, &obj_dir, &scan, &mut warnings)?;
     let mirrored = transform_positions(&mut positions, opts);
+    let mut sorted = sort_faces(&file, &scan, &positions, mirrored, opts)?;
+    let dupes = drop_card_backs(&scan, &positions, &mut sorted.leaf_faces);
+    let mut mesh = std::mem::take(&mut sorted.mesh);
+    match opts.per {
+        Per::Face => {
+            for lf in &sorted.leaf_faces {
+                let g = lf.geom;
+                push_disk(&mut mesh, g.centroid, g.normal, g.area, lf.label);
+            }
+        }
+        Per::Patch => patch_disks(&mut mesh, &file, &scan, &sorted.leaf_faces, &mut warnings),
+    }
+    mesh.n_degenerate_faces = sorted.few.n + sorted.repeated.n + sorted.flat.n;
+    summary_warnings(&file, &scan, opts, &sorted, &dupes, &mesh, &mut warnings);
+    if mesh.leaf_centers.is_empty() && mesh.bark_faces.is_empty() {
+        return Err(Error::Obj(format!(
+            "{file}: none of its {n_faces} faces is usable ({} degenerate); nothing to load",
+            mesh.n_degenerate_faces
+        )));
+    }
+    mesh.group_names = std::mem::take(&mut sorted.labels.names);
+    mesh.warnings = warnings;
+    Ok(mesh)
+}
+
+/// The faces sorted by [`sort_faces`]: the bark already triangulated into `mesh`, the leaf
+/// faces for their disks, the skipped ones counted.
+struct Sorted {
+    mesh: ObjMesh,
+    labels: Labels,
+    leaf_faces: Vec<LeafFace>,
+    /// Faces whose names make them leaves (usable or not).
+    n_leaf_faces: usize,
+    /// Skipped: fewer than 3 vertices, a repeated vertex, ~zero area; polylines.
+    few: Tally,
+    repeated: Tally,
+    flat: Tally,
+    lines: Tally,
+}
+
+/// Every face by its names: leaf faces kept with their geometry, bark polygons fan-triangulated
+/// into the mesh with their own vertices, degenerate faces and polylines counted. An error
+/// where a vertex is not finite after the scale and transform.
+fn sort_faces(
+    file: &str,
+    scan: &Scan,
+    positions: &[V3],
+    mirrored: bool,
+    opts: &ObjOptions,
+) -> Result<Sorted> {
     let classes: Vec<(bool, String)> = scan
         .name_sets
         .iter()
         .map(|s| classify(s, &opts.leaf_patterns))
         .collect();
-
-    let mut labels = Labels::default();
-    let mut mesh = ObjMesh::default();
-    let (mut few, mut repeated, mut flat, mut lines) = (
-        Tally::default(),
-        Tally::default(),
-        Tally::default(),
-        Tally::default(),
-    );
-    let mut leaf_faces: Vec<LeafFace> = Vec::new();
-    let mut n_leaf_faces = 0usize;
+    let mut out = Sorted {
+        mesh: ObjMesh::default(),
+        labels: Labels::default(),
+        leaf_faces: Vec::new(),
+        n_leaf_faces: 0,
+        few: Tally::default(),
+        repeated: Tally::default(),
+        flat: Tally::default(),
+        lines: Tally::default(),
+    };
+    let mesh = &mut out.mesh;
     let mut bark_index = vec![u32::MAX; scan.n_positions];
     let mut pts: Vec<V3> = Vec::new();
     for (fi, f) in scan.faces.iter().enumerate() {
         if f.kind == Element::Line {
-            lines.add(f.line);
+            out.lines.add(f.line);
             continue;
         }
         let (is_leaf, name) = &classes[f.names as usize];
-        n_leaf_faces += usize::from(*is_leaf);
+        out.n_leaf_faces += usize::from(*is_leaf);
         let idx = &scan.corners[f.start..f.start + f.len];
         if idx.len() < 3 {
-            few.add(f.line);
+            out.few.add(f.line);
             continue;
         }
         if has_repeat(idx) {
-            repeated.add(f.line);
+            out.repeated.add(f.line);
             continue;
         }
         pts.clear();
         pts.extend(idx.iter().map(|&g| positions[g as usize]));
         if let Some(bad) = pts.iter().find(|p| !p.iter().all(|x| x.is_finite())) {
             return obj_err(
-                &file,
+                file,
                 f.line,
                 format!(
                     "a vertex of this face is not finite after scale/transform: {bad:?} (scale \
@@ -171,15 +221,15 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
             );
         }
         let Some(mut geom) = polygon_geometry(&pts) else {
-            flat.add(f.line);
+            out.flat.add(f.line);
             continue;
         };
         if mirrored {
             geom.normal = [-geom.normal[0], -geom.normal[1], -geom.normal[2]];
         }
-        let label = labels.get(name);
+        let label = out.labels.get(name);
         if *is_leaf {
-            leaf_faces.push(LeafFace {
+            out.leaf_faces.push(LeafFace {
                 face: fi,
                 label,
                 geom,
@@ -208,8 +258,12 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
             prev = next;
         }
     }
+    Ok(out)
+}
 
-    // The back of a double-sided card (same vertex positions as an earlier leaf face) once.
+/// Keep the back of a double-sided card (the same vertex positions as an earlier leaf face)
+/// out of the leaf faces; the count of those dropped.
+fn drop_card_backs(scan: &Scan, positions: &[V3], leaf_faces: &mut Vec<LeafFace>) -> Tally {
     let mut seen: HashSet<Vec<[u64; 3]>> = HashSet::new();
     let mut dupes = Tally::default();
     leaf_faces.retain(|lf| {
@@ -225,100 +279,116 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
         }
         fresh
     });
+    dupes
+}
 
-    let push_disk = |mesh: &mut ObjMesh, c: V3, n: V3, area: f64, label: u32| {
-        mesh.leaf_centers.push(c);
-        mesh.leaf_normals.push(n);
-        mesh.leaf_radii.push((area / PI).sqrt());
-        mesh.leaf_areas.push(area);
-        mesh.leaf_groups.push(label);
-    };
-    match opts.per {
-        Per::Face => {
-            for lf in &leaf_faces {
-                let g = lf.geom;
-                push_disk(&mut mesh, g.centroid, g.normal, g.area, lf.label);
-            }
-        }
-        Per::Patch => {
-            let mut parent: Vec<usize> = (0..leaf_faces.len()).collect();
-            let mut first: HashMap<(u32, u32), usize> = HashMap::new();
-            for (k, lf) in leaf_faces.iter().enumerate() {
-                let f = &scan.faces[lf.face];
-                for &g in &scan.corners[f.start..f.start + f.len] {
-                    match first.entry((lf.label, g)) {
-                        Entry::Occupied(e) => {
-                            let (a, b) = (find(&mut parent, k), find(&mut parent, *e.get()));
-                            if a != b {
-                                parent[a.max(b)] = a.min(b);
-                            }
-                        }
-                        Entry::Vacant(e) => {
-                            e.insert(k);
-                        }
+/// A leaf disk of area `area` at `c`, unit normal `n`, in group `label`.
+fn push_disk(mesh: &mut ObjMesh, c: V3, n: V3, area: f64, label: u32) {
+    mesh.leaf_centers.push(c);
+    mesh.leaf_normals.push(n);
+    mesh.leaf_radii.push((area / PI).sqrt());
+    mesh.leaf_areas.push(area);
+    mesh.leaf_groups.push(label);
+}
+
+/// One disk per patch of leaf faces (connected through shared vertices within one group), in
+/// the order of their first face: the patch's area, its area centroid, and its area-weighted
+/// normal with each face turned to the side of the largest face's. A patch whose normals
+/// cancel is skipped with a warning.
+fn patch_disks(
+    mesh: &mut ObjMesh,
+    file: &str,
+    scan: &Scan,
+    leaf_faces: &[LeafFace],
+    warnings: &mut Vec<String>,
+) {
+    let mut parent: Vec<usize> = (0..leaf_faces.len()).collect();
+    let mut first: HashMap<(u32, u32), usize> = HashMap::new();
+    for (k, lf) in leaf_faces.iter().enumerate() {
+        let f = &scan.faces[lf.face];
+        for &g in &scan.corners[f.start..f.start + f.len] {
+            match first.entry((lf.label, g)) {
+                Entry::Occupied(e) => {
+                    let (a, b) = (find(&mut parent, k), find(&mut parent, *e.get()));
+                    if a != b {
+                        parent[a.max(b)] = a.min(b);
                     }
                 }
-            }
-            // Patches in the order of their first face.
-            let mut patch_of_root: HashMap<usize, usize> = HashMap::new();
-            let mut patches: Vec<Vec<usize>> = Vec::new();
-            for k in 0..leaf_faces.len() {
-                let r = find(&mut parent, k);
-                let p = *patch_of_root.entry(r).or_insert_with(|| {
-                    patches.push(Vec::new());
-                    patches.len() - 1
-                });
-                patches[p].push(k);
-            }
-            for members in &patches {
-                let faces: Vec<&LeafFace> = members.iter().map(|&k| &leaf_faces[k]).collect();
-                let largest = faces.iter().fold(faces[0], |best, f| {
-                    if f.geom.area > best.geom.area {
-                        f
-                    } else {
-                        best
-                    }
-                });
-                let nl = largest.geom.normal;
-                let c0 = faces[0].geom.centroid;
-                let (mut area, mut acc, mut nsum) = (0.0, [0.0; 3], [0.0; 3]);
-                for f in &faces {
-                    let g = f.geom;
-                    let s = if dot(g.normal, nl) < 0.0 { -1.0 } else { 1.0 };
-                    area += g.area;
-                    for k in 0..3 {
-                        acc[k] += g.area * (g.centroid[k] - c0[k]);
-                        nsum[k] += s * g.area * g.normal[k];
-                    }
+                Entry::Vacant(e) => {
+                    e.insert(k);
                 }
-                let len = norm(nsum);
-                if !(len.is_finite() && len > 1e-12 * area) {
-                    warnings.push(format!(
-                        "{file}: the leaf patch of {} faces starting at line {} has no net \
-                         orientation (its face normals cancel); skipped",
-                        faces.len(),
-                        scan.faces[faces[0].face].line
-                    ));
-                    continue;
-                }
-                let c = [
-                    c0[0] + acc[0] / area,
-                    c0[1] + acc[1] / area,
-                    c0[2] + acc[2] / area,
-                ];
-                let n = [nsum[0] / len, nsum[1] / len, nsum[2] / len];
-                push_disk(&mut mesh, c, n, area, faces[0].label);
             }
         }
     }
+    // Patches in the order of their first face.
+    let mut patch_of_root: HashMap<usize, usize> = HashMap::new();
+    let mut patches: Vec<Vec<usize>> = Vec::new();
+    for k in 0..leaf_faces.len() {
+        let r = find(&mut parent, k);
+        let p = *patch_of_root.entry(r).or_insert_with(|| {
+            patches.push(Vec::new());
+            patches.len() - 1
+        });
+        patches[p].push(k);
+    }
+    for members in &patches {
+        let faces: Vec<&LeafFace> = members.iter().map(|&k| &leaf_faces[k]).collect();
+        let largest = faces.iter().fold(faces[0], |best, f| {
+            if f.geom.area > best.geom.area {
+                f
+            } else {
+                best
+            }
+        });
+        let nl = largest.geom.normal;
+        let c0 = faces[0].geom.centroid;
+        let (mut area, mut acc, mut nsum) = (0.0, [0.0; 3], [0.0; 3]);
+        for f in &faces {
+            let g = f.geom;
+            let s = if dot(g.normal, nl) < 0.0 { -1.0 } else { 1.0 };
+            area += g.area;
+            for k in 0..3 {
+                acc[k] += g.area * (g.centroid[k] - c0[k]);
+                nsum[k] += s * g.area * g.normal[k];
+            }
+        }
+        let len = norm(nsum);
+        if !(len.is_finite() && len > 1e-12 * area) {
+            warnings.push(format!(
+                "{file}: the leaf patch of {} faces starting at line {} has no net \
+                 orientation (its face normals cancel); skipped",
+                faces.len(),
+                scan.faces[faces[0].face].line
+            ));
+            continue;
+        }
+        let c = [
+            c0[0] + acc[0] / area,
+            c0[1] + acc[1] / area,
+            c0[2] + acc[2] / area,
+        ];
+        let n = [nsum[0] / len, nsum[1] / len, nsum[2] / len];
+        push_disk(mesh, c, n, area, faces[0].label);
+    }
+}
 
-    mesh.n_degenerate_faces = few.n + repeated.n + flat.n;
+/// The warnings that sum up a load: degenerate faces skipped, card backs counted once,
+/// polylines ignored, no leaf faces (with the names in the file) or no leaves from them.
+fn summary_warnings(
+    file: &str,
+    scan: &Scan,
+    opts: &ObjOptions,
+    sorted: &Sorted,
+    dupes: &Tally,
+    mesh: &ObjMesh,
+    warnings: &mut Vec<String>,
+) {
     if mesh.n_degenerate_faces > 0 {
         let mut parts = Vec::new();
         for (t, what) in [
-            (&few, "with fewer than 3 vertices"),
-            (&repeated, "with a repeated vertex"),
-            (&flat, "with ~zero area"),
+            (&sorted.few, "with fewer than 3 vertices"),
+            (&sorted.repeated, "with a repeated vertex"),
+            (&sorted.flat, "with ~zero area"),
         ] {
             if t.n > 0 {
                 parts.push(format!("{} {what} ({})", t.n, t.at()));
@@ -340,6 +410,7 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
             dupes.at()
         ));
     }
+    let lines = &sorted.lines;
     if lines.n > 0 {
         warnings.push(format!(
             "{file}: {} polyline element{} (l) ignored; only faces (f) are loaded ({})",
@@ -348,6 +419,7 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
             lines.at()
         ));
     }
+    let n_leaf_faces = sorted.n_leaf_faces;
     if n_leaf_faces == 0 {
         let mut seen_names: Vec<&str> = Vec::new();
         for s in &scan.name_sets {
@@ -368,13 +440,4 @@ fn load_text(text: &str, path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
              cancelling); no leaves"
         ));
     }
-    if mesh.leaf_centers.is_empty() && mesh.bark_faces.is_empty() {
-        return Err(Error::Obj(format!(
-            "{file}: none of its {n_faces} faces is usable ({} degenerate); nothing to load",
-            mesh.n_degenerate_faces
-        )));
-    }
-    mesh.group_names = labels.names;
-    mesh.warnings = warnings;
-    Ok(mesh)
 }
