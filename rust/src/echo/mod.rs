@@ -1,5 +1,6 @@
-//! The per-leaf spectrum kernel: adds one leaf's unwindowed `A_k exp(j phi_k)` to every band
-//! bin (MODEL.md sections 4-5).
+//! The exact sum (`method = "exact"`, MODEL.md sections 4-5): the per-leaf spectrum kernel adds
+//! one leaf's unwindowed `A_k exp(j phi_k)` to every band bin, and the band spectrum sums the
+//! leaves in fixed chunks ([`spectrum`]).
 //!
 //! A leaf's term at bin k is `F(k) exp(-j 2 pi f_k 2r/v)`, with the smooth leaf factor
 //! `F = g G L(c, beta) exp(-j psi(c, beta)) / (k r^2)` (times absorption). The round-trip
@@ -24,9 +25,6 @@
 //! leaves [0, pi]. `mul_add` is used throughout; on CPUs without FMA it is the correctly
 //! rounded libm `fma`, so every CPU gets the same bits.
 
-pub use prepared::Prepared;
-pub use spectrum::{band_spectrum, sum_terms, sum_terms_unwindowed};
-pub use term::{leaf_amp, leaf_term, LeafTerm};
 pub mod exact;
 pub mod impulse;
 pub mod po;
@@ -36,25 +34,16 @@ pub mod spectrum;
 pub mod tables;
 pub mod term;
 
-pub use exact::add_leaf;
-pub use exact::add_leaf_scalar;
 pub(crate) use exact::cis_neg;
-pub use exact::CHEB_TOL;
-pub use exact::SMOOTH_TOL;
-pub(crate) use regime::first_live_bin;
-pub(crate) use regime::paper_regime;
-pub(crate) use regime::paper_regime_bits;
-pub(crate) use regime::paper_regime_of;
-pub(crate) use regime::PaperRegime;
-pub(crate) use regime::REGIME_KINKED;
-pub(crate) use regime::REGIME_ZERO;
-pub use tables::BandTables;
-pub use tables::BinOfKp;
-pub use tables::NodeTables;
-pub use tables::ANCHOR_BINS;
-pub use tables::LANES;
-pub use tables::POLY_BLOCK;
-pub use tables::POLY_DEG;
+pub use exact::{add_leaf, add_leaf_scalar, CHEB_TOL, SMOOTH_TOL};
+pub use prepared::Prepared;
+pub(crate) use regime::{
+    first_live_bin, paper_regime, paper_regime_bits, paper_regime_of, PaperRegime, REGIME_KINKED,
+    REGIME_ZERO,
+};
+pub use spectrum::{band_spectrum, sum_terms, sum_terms_unwindowed};
+pub use tables::{BandTables, BinOfKp, NodeTables, ANCHOR_BINS, LANES, POLY_BLOCK, POLY_DEG};
+pub use term::{leaf_amp, leaf_term, LeafTerm};
 
 #[cfg(test)]
 mod tests;

@@ -10,21 +10,11 @@ pub mod members;
 pub mod rule;
 pub mod walk;
 
-pub(crate) use block::classify_candidates;
-pub(crate) use block::BlockView;
-pub(crate) use block::CB;
-pub use bound::test_box;
-pub use bound::AngularBound;
-pub use bound::BoxTest;
+pub(crate) use block::{classify_candidates, BlockView, CB};
+pub use bound::{test_box, AngularBound, BoxTest};
 pub(crate) use members::classify_member;
-pub use members::farthest_member_range;
-pub use members::members;
-pub use members::members_of;
-pub use members::Member;
-pub use members::Search;
-pub use rule::classify;
-pub use rule::Decision;
-pub use rule::LeafView;
+pub use members::{farthest_member_range, members, members_of, Member, Search};
+pub use rule::{classify, Decision, LeafView};
 pub use walk::{bvh_candidates, candidates};
 
 #[cfg(test)]

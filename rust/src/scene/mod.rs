@@ -4,8 +4,4 @@ pub mod bvh;
 pub mod leaves;
 pub mod obj;
 
-pub use leaves::normalized;
-pub use leaves::validate_leaves;
-pub use leaves::Scene;
-pub use leaves::Xyz;
-pub use leaves::MAX_COORDINATE;
+pub use leaves::{normalized, validate_leaves, Scene, Xyz, MAX_COORDINATE};

@@ -5,10 +5,5 @@
 pub mod band;
 pub mod params;
 
-pub use band::round_half_up;
-pub use band::Sonar;
-pub use params::LeafModel;
-pub use params::LobeRule;
-pub use params::SonarParams;
-pub use params::TooClose;
-pub use params::Window;
+pub use band::{round_half_up, Sonar};
+pub use params::{LeafModel, LobeRule, SonarParams, TooClose, Window};

@@ -20,15 +20,9 @@ pub mod options;
 pub mod scan;
 
 pub use build::load_obj;
-pub use geometry::polygon_geometry;
-pub use geometry::PolygonGeometry;
+pub use geometry::{polygon_geometry, PolygonGeometry};
 pub use names::pattern_matches;
-pub use options::ObjMesh;
-pub use options::ObjOptions;
-pub use options::Per;
-pub use options::Up;
-pub use options::DEFAULT_LEAF_PATTERNS;
-pub use options::DEGENERATE_REL_AREA;
+pub use options::{ObjMesh, ObjOptions, Per, Up, DEFAULT_LEAF_PATTERNS, DEGENERATE_REL_AREA};
 
 #[cfg(test)]
 mod tests;
