@@ -53,7 +53,7 @@ pub struct BandTables {
 
 /// The inverse of the table `kp[j] = k_j^-0.9065` (which falls with the bin): a cubic in
 /// `kp` through four Chebyshev points of its range, in Newton's form, found on the table
-/// (linear between bins). For [`first_live_bin`]'s first guess: over a 60-80 kHz band it
+/// (linear between bins). For [`first_live_bin`](crate::echo::regime::first_live_bin)'s first guess: over a 60-80 kHz band it
 /// lands within a bin of the crossing, where a chord and a Newton step on the table cost
 /// two dependent divisions and four dependent loads.
 #[derive(Clone, Copy, Debug, Default)]

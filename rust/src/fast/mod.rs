@@ -24,7 +24,7 @@
 //! interpolant is subtracted, bin by bin, on the zero side; when the live side is the
 //! shorter, the interpolant is added there instead. See [`paper_batch`]. Kinked leaves that
 //! fail a first pass's check go to sub-bands ([`crate::fast::subband`]), where they need far fewer
-//! nodes: in the first pass's own tasks where it has few ([`KINKED_IN_TASKS_UP_TO`]), else in
+//! nodes: in the first pass's own tasks where it has few ([`KINKED_IN_TASKS_UP_TO`](pass::KINKED_IN_TASKS_UP_TO)), else in
 //! a later pass ([`leftover_pass`]).
 
 pub mod batch;

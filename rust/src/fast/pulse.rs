@@ -10,7 +10,7 @@
 //! the paper model's domain) are kept as terms, in chunk order, for
 //! [`crate::fast::leftover_pass`]: kinked ones by sub-bands, the other failures by a second
 //! pass at the plan's full node count, the rest by the exact sum.
-//! The set of counting leaves is exactly that of [`crate::lobe::members`]: the same per-leaf
+//! The set of counting leaves is exactly that of [`crate::lobe::members()`]: the same per-leaf
 //! test ([`crate::lobe::classify_candidates`]).
 
 use crate::echo::term::{leaf_amp, leaf_term, LeafTerm};

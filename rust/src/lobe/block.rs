@@ -1,6 +1,6 @@
 //! The exact test for a block of up to [`CB`] candidates at once (lanes): ranges, angles, gains
 //! and incidence by branch-free polynomial code, with the cases near a boundary left to
-//! [`classify`].
+//! [`classify`](crate::lobe::rule::classify).
 use crate::lobe::members::classify_member;
 use crate::lobe::members::Member;
 use crate::math::vec3::{cross, V3};

@@ -32,7 +32,7 @@ pub enum Per {
     Face,
 }
 
-/// Options of [`load_obj`].
+/// Options of [`load_obj`](crate::scene::obj::load_obj).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObjOptions {
     /// Case-insensitive; a pattern with `*` or `?` is a glob over the whole name, any other
