@@ -3,7 +3,7 @@ timed side by side in one run (the machine is shared and noisy; only the ratio i
 
 Scene: leaves uniform in x in [1, 10], y, z in [-2, 2] m at 25 leaves/m^3; radius N(2, 0.2) cm;
 normal at N(85, 5) deg from the x axis, uniform azimuth. Sonar at the origin looking along +x,
-30 deg beam, MODEL.md defaults.
+30 deg beam, the model's defaults (docs/model.md).
 
     python benches/bench_canonical.py [--repeat 5] [--seed 2017]
 """

@@ -1,18 +1,19 @@
 //! Criterion benchmarks of the echo kernel (`cargo bench`):
-//! - the spectrum kernel for 1e3, 1e4, 1e5 leaves at 1201 bins (MODEL.md defaults);
+//! - the spectrum kernel for 1e3, 1e4, 1e5 leaves at 1201 bins (the model's defaults, docs/model.md);
 //! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force;
 //! - one whole fast pulse (lobe query and spectrum, tol 1e-6) with 1e5 and 1e6 leaves in the
 //!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
 //! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order.
 
+use batecho::echo::{leaf_term, sum_terms, LeafTerm};
+use batecho::fast::pulse::fast_pulse;
+use batecho::fast::FastSonar;
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
-use batecho::lobe::{members, Search};
-use batecho::pose::Pose;
-use batecho::pulse::{candidates, fast_pulse};
+use batecho::lobe::{candidates, members, Search};
+use batecho::physics::pose::Pose;
 use batecho::scene::Scene;
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Sonar, SonarParams};
-use batecho::spectrum::{leaf_term, sum_terms, LeafTerm};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 
@@ -31,8 +32,10 @@ impl Rng {
     }
 }
 
-fn sonar(beamwidth_deg: f64) -> Sonar {
-    Sonar::new(SonarParams::with_beamwidth(beamwidth_deg.to_radians()).unwrap()).unwrap()
+fn sonar(beamwidth_deg: f64) -> FastSonar {
+    FastSonar::new(
+        Sonar::new(SonarParams::with_beamwidth(beamwidth_deg.to_radians()).unwrap()).unwrap(),
+    )
 }
 
 fn terms(n: usize, rng: &mut Rng) -> Vec<LeafTerm> {
@@ -161,7 +164,7 @@ fn bench_pulse(c: &mut Criterion) {
     p.lobe = LobeRule::Cone {
         half_angle: 75f64.to_radians(),
     };
-    let s = Sonar::new(p).unwrap();
+    let s = FastSonar::new(Sonar::new(p).unwrap());
     let plan = FastPlan::new(&s, 1e-6).unwrap();
     let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
     let mut g = c.benchmark_group("pulse_fast_tol1e-6");

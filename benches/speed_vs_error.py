@@ -3,10 +3,10 @@
 
 Scene: N leaves uniform in x in [1, 9.5] m, y, z in [-2, 2] m, radius N(2, 0.2) cm, uniformly
 random normals; the sonar at the origin looking along +x with a 75-degree hard cone, so that
-every leaf counts (MODEL.md defaults otherwise: 1201 band bins). Times are medians of warm
-repeats on this machine, with all threads (RAYON_NUM_THREADS to change); "lobe" is the
-lobe query alone (lobe_members, which also builds and sorts the member list; a fast pulse
-fuses the lobe test with the spectrum instead), for reference.
+every leaf counts (the defaults of docs/model.md otherwise: 1201 band bins). Times are
+medians of warm repeats on this machine, with all threads (RAYON_NUM_THREADS to change);
+"lobe" is the lobe query alone (lobe_members, which also builds and sorts the member list; a
+fast pulse fuses the lobe test with the spectrum instead), for reference.
 
     python benches/speed_vs_error.py [--sizes 1e3,1e4,1e5,1e6] [--repeat 3] [--out benches/out]
 

@@ -1,4 +1,4 @@
-"""The Rust exact path agrees with the NumPy reference (MODEL.md) on generated scenes.
+"""The Rust exact path agrees with the NumPy reference (docs/model.md) on generated scenes.
 
 Tolerance: relative L2 error of the spectrum and of the impulse at most 1e-10, and the same
 number of counting leaves per pose. Generated scenes mix the hard cases: normal and grazing

@@ -1,6 +1,6 @@
-"""Numerical stability on hard cases, each against a sum in higher precision: MODEL.md evaluated
-in 40-digit arithmetic (mpmath) from the same f64 inputs, or the exactly rounded sum of the f64
-terms (math.fsum).
+"""Numerical stability on hard cases, each against a sum in higher precision: docs/model.md
+evaluated in 40-digit arithmetic (mpmath) from the same f64 inputs, or the exactly rounded sum of
+the f64 terms (math.fsum).
 
 Conditioning, for reading the tolerances: ranges are computed from f64 coordinates, so r
 carries a relative rounding error of ~1e-16, and a round-trip phase of Phi radians is
@@ -22,7 +22,7 @@ mp.mp.dps = 40
 
 
 def mp_terms(leaves: Leaves, sonar: Sonar, pose: Poses, bins: np.ndarray) -> np.ndarray:
-    """Windowed band spectrum Y at the given band-bin offsets, MODEL.md in mpmath; every
+    """Windowed band spectrum Y at the given band-bin offsets, docs/model.md in mpmath; every
     leaf is assumed to count (the tests place them in the lobe)."""
     p = [mp.mpf(float(v)) for v in pose.positions[0]]
     frame = (pose.forward[0], pose.up[0], pose.left[0])

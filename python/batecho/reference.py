@@ -1,4 +1,4 @@
-"""The NumPy reference: MODEL.md written out for clarity, not speed.
+"""The NumPy reference: docs/model.md written out for clarity, not speed.
 
 Plain NumPy and SciPy, a brute-force lobe test (no BVH, no Rust). ``simulate`` and
 ``lobe_members`` have the same signatures and results as ``batecho.simulate`` and
@@ -199,7 +199,7 @@ def _incidence(e: np.ndarray, n: np.ndarray):
 
 
 def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> Echoes:
-    """Echoes of ``scene`` for every pose, straight from MODEL.md (``method`` is ignored: the
+    """Echoes of ``scene`` for every pose, straight from docs/model.md (``method`` is ignored: the
     reference is always the exact sum)."""
     leaves = as_leaves(scene)
     if not isinstance(sonar, Sonar) or not isinstance(poses, Poses):

@@ -1,38 +1,21 @@
 //! batecho: foliage echoes for bat-inspired sonar (the pure-Rust core).
 //!
-//! The numeric kernels here use no pyo3; the Python extension lives in [`bindings`] behind the
-//! `python` feature, so `cargo test` and `cargo bench` run without Python.
+//! The numeric kernels here use no pyo3; the Python extension `batecho._core` is the crate in
+//! `rust/python`, so `cargo test` and `cargo bench` run without Python.
 //! Units: metres, seconds, hertz, radians.
 
 // `!(x <= y)` is used on purpose throughout: it is true for NaN, so NaN never passes a check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod absorption;
-pub mod aligned;
-pub mod beam;
-pub mod candidates;
-pub mod erf_table;
+pub mod echo;
 pub mod error;
 pub mod fast;
-pub mod impulse;
-pub mod kernel;
-pub mod leaf_model;
 pub mod lobe;
-pub mod nufft;
-pub mod obj;
-pub mod phase;
-pub mod pose;
-mod prefetch;
-pub mod pulse;
+pub mod math;
+pub mod physics;
 pub mod scene;
 pub mod simulate;
 pub mod sonar;
-pub mod spectrum;
-pub mod subband;
-pub mod vmath;
-
-#[cfg(feature = "python")]
-mod bindings;
 
 pub use error::{Error, Result};
 
@@ -52,10 +35,19 @@ pub(crate) mod test_util {
     /// A sonar with a 30 degree beam and the defaults, as `edit` changes them.
     pub(crate) fn sonar_with(
         edit: impl FnOnce(&mut crate::sonar::SonarParams),
-    ) -> crate::sonar::Sonar {
+    ) -> crate::fast::FastSonar {
         let mut p = crate::sonar::SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
         edit(&mut p);
-        crate::sonar::Sonar::new(p).unwrap()
+        crate::fast::FastSonar::new(crate::sonar::Sonar::new(p).unwrap())
+    }
+
+    /// [`sonar_with`] with the exact kernel's tables only.
+    pub(crate) fn prepared_with(
+        edit: impl FnOnce(&mut crate::sonar::SonarParams),
+    ) -> crate::echo::Prepared {
+        let mut p = crate::sonar::SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        edit(&mut p);
+        crate::echo::Prepared::new(crate::sonar::Sonar::new(p).unwrap())
     }
 
     /// Relative L2 distance of the spectrum `a` from `b` (real and imaginary parts).

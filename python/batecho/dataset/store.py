@@ -114,7 +114,7 @@ def schema(spec: DatasetSpec) -> list[Var]:
                 real,
                 nan,
                 "1",
-                "impulse response 2 irfft(Y, n_samples) (MODEL.md), cropped to the time coord",
+                "impulse response 2 irfft(Y, n_samples) (docs/model.md), cropped to the time coord",
             )
         )
     if spec.output.spectrum:

@@ -45,7 +45,7 @@ def canonical_leaf_box(
 
 
 def canonical_sonar(**kwargs) -> Sonar:
-    """The canonical scene's sonar: MODEL.md defaults with a 30 degree beam."""
+    """The canonical scene's sonar: the model's defaults (docs/model.md) with a 30 degree beam."""
     kwargs.setdefault("beamwidth_deg", 30.0)
     return Sonar(**kwargs)
 

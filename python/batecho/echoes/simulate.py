@@ -69,14 +69,14 @@ def simulate(
 
     ``method``:
 
-    - ``"exact"`` sums every (leaf, bin) term (MODEL.md, exact to rounding);
+    - ``"exact"`` sums every (leaf, bin) term (docs/model.md, exact to rounding);
     - ``"fast"`` uses a type-1 NUFFT in the round-trip delays, with a relative L2 error of the
       spectrum at most ``tol`` (``1e-13 <= tol < 1``);
     - ``"auto"`` (the default) picks, per pose, whichever of the two is cheaper for ``tol``.
 
     With the default ``tol=1e-12`` the result agrees with the exact sum to ~1e-13 (and so
-    with MODEL.md's reference implementation); pass e.g. ``tol=1e-6`` for speed on large
-    scenes (see the README's speed-against-error table).
+    with the authors' reference implementation); pass e.g. ``tol=1e-6`` for speed on large
+    scenes (see docs/performance.md).
 
     Poses run in parallel in Rust with the GIL released; results are bit-identical for any
     number of threads.

@@ -251,7 +251,7 @@ def lobe_surface(sonar, pose, n_alpha: int = 36, n_phi: int = 48):
 
     Returns ``(X, Y, Z)``, each (n_alpha + 1, n_phi + 1), world coordinates (m), for
     ``Axes3D.plot_surface``. With ``lobe="detectable"`` the boundary is
-    ``r(az, el) = sqrt(r0^2 p0 G(az, el) / (10^(T/20) p_ref))`` (MODEL.md section 3, two-way gain
+    ``r(az, el) = sqrt(r0^2 p0 G(az, el) / (10^(T/20) p_ref))`` (docs/model.md §3, two-way gain
     ``G``), capped at ``sonar.range_limit_m``; rows run over the angle from the beam centre out
     to 3.5 sigma (where ``r`` is a few mm) and the last row is the pulse position. With
     ``lobe="cone"`` it is the cone of ``cone_half_angle_deg`` around the beam axis, capped by

@@ -1,5 +1,5 @@
 """The experiments of Tanveer et al., "Recreating Bat Behavior on Quad-rotor UAVs": Figures
-5-10 and Table 1 (MODEL.md section 7), rerun with batecho.
+5-10 and Table 1 (docs/model.md §7), rerun with batecho.
 
 * :func:`paper_figures` writes PNG figures in the spirit of the paper's Figures 5-10, plus a
   straight run toward a tree and echo images along the circle, and an NPZ with their data.

@@ -323,7 +323,8 @@ def paper_figures(
         "radius_m": R,
         "altitude_m": Z,
         "beamwidths_deg": list(PAPER_BEAMWIDTHS_DEG),
-        "sonar": "MODEL.md defaults with too_close='skip' and the beamwidth of each figure",
+        "sonar": "the model's defaults (docs/model.md) with too_close='skip' and the beamwidth "
+        "of each figure",
         "rngs": "numpy SeedSequence(seed).spawn(3): one tree (also the straight run), two "
         "trees, three trees",
         "machine": machine_info(),

@@ -177,7 +177,7 @@ class Table1Result:
             f"around the mean tree position, pulses at equal angles, heading "
             f"`{s.get('heading')}`",
             f"- sonar: `{json.dumps(s.get('sonar', {}), sort_keys=True)}` (other parameters at "
-            "MODEL.md defaults)",
+            "the model's defaults (docs/model.md))",
             f"- timing: {s.get('timing', '')}",
             f"- machine: `{json.dumps(m, sort_keys=True)}`",
             "",

@@ -1,5 +1,5 @@
 """Beampatterns: a one-way Gaussian beam with its -3 dB width, sigmas, rotation and centre
-(MODEL.md section 2), and the horseshoe bat's beamwidth against frequency."""
+(docs/model.md §2), and the horseshoe bat's beamwidth against frequency."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The sonar: every parameter of the echo model -- beams, lobe rule, frequency grid, leaf model,
-absorption -- checked and handed to the Rust core, and its record length (MODEL.md sections
+absorption -- checked and handed to the Rust core, and its record length (docs/model.md sections
 2-5).
 
 Angles are in degrees at this edge (names ending ``_deg``) and radians inside; lengths in m,
@@ -33,7 +33,7 @@ DEFAULT_BEAMWIDTH_DEG = 30.0
 
 @dataclass(frozen=True)
 class Sonar:
-    """Every parameter of the echo model (MODEL.md), with its defaults.
+    """Every parameter of the echo model (docs/model.md), with its defaults.
 
     Beam: ``beamwidth_deg`` (full -3 dB width, default 30) or a :class:`Beam` as ``beam`` for
     sigma per axis, rotation and beam centre. ``receiver`` gives the receiver its own pattern
@@ -50,9 +50,9 @@ class Sonar:
     Leaves beyond ``max_range_m`` (default: the record's range ``v n / (2 fs)``) never count.
 
     Leaves: ``leaf_model="paper"`` (Ming et al.'s fit) or ``"physical_optics"``; ``spreading``
-    keeps the 1/r^2 of MODEL.md (False cancels it, as the authors' UAV scripts did); ``gain`` g;
-    ``window`` "hann" (periodic, over the band bins) or "rect"; ``absorption`` None or an
-    :class:`Atmosphere` (ISO 9613-1).
+    keeps the 1/r^2 of docs/model.md §5 (False cancels it, as the authors' UAV scripts did);
+    ``gain`` g; ``window`` "hann" (periodic, over the band bins) or "rect"; ``absorption``
+    None or an :class:`Atmosphere` (ISO 9613-1).
 
     Guards: a leaf closer than ``min_range_m`` to a pulse raises (``too_close="raise"``) or is
     left out (``"skip"``); leaves with ``k a < min_ka`` at the band's lowest frequency are

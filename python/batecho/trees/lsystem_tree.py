@@ -1,4 +1,4 @@
-"""The authors' ginkgo-like L-system tree (MODEL.md section 7): bark tubes around the turtle's
+"""The authors' ginkgo-like L-system tree (docs/model.md §7): bark tubes around the turtle's
 segments and clusters of leaf disks at its leaf nodes."""
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def grow_lsystem_tree(
     bark_sides: int = 5,
     base: Sequence[float] = (0.0, 0.0, 0.0),
 ) -> Tree:
-    """The authors' ginkgo-like L-system tree (MODEL.md section 7); the defaults are theirs.
+    """The authors' ginkgo-like L-system tree (docs/model.md §7); the defaults are theirs.
 
     The axiom ``A(l0, 0, -1)`` grows by ``A(l, k, b) -> F(l) ... /(div) [&(angle) A(c l, k+1,
     b')] x laterals A(cc l, k+1, b)`` for ``k < n_levels``: a segment of length ``l`` (the trunk,

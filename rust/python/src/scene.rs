@@ -1,0 +1,51 @@
+//! `_core.Scene`: the leaves and their BVH, built once from NumPy arrays.
+
+use batecho::scene::Scene;
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use std::sync::Arc;
+
+use crate::{rows3, to_py};
+
+/// Leaves and their BVH (obvhs), built once.
+#[pyclass(name = "Scene", module = "batecho._core", frozen)]
+pub(crate) struct PyScene {
+    pub(crate) inner: Arc<Scene>,
+}
+
+#[pymethods]
+impl PyScene {
+    /// `Scene(centers (n,3), unit normals (n,3), radii (n,))`, float64, metres.
+    #[new]
+    fn new(
+        py: Python<'_>,
+        centers: PyReadonlyArray2<'_, f64>,
+        normals: PyReadonlyArray2<'_, f64>,
+        radii: PyReadonlyArray1<'_, f64>,
+    ) -> PyResult<Self> {
+        let c = rows3(&centers, "centers")?;
+        let n = rows3(&normals, "normals")?;
+        let r: Vec<f64> = radii.as_array().iter().copied().collect();
+        let scene = py.detach(move || Scene::new(c, n, r)).map_err(to_py)?;
+        Ok(PyScene {
+            inner: Arc::new(scene),
+        })
+    }
+
+    #[getter]
+    fn n_leaves(&self) -> usize {
+        self.inner.len()
+    }
+
+    /// Seconds spent building the BVH.
+    #[getter]
+    fn build_time_s(&self) -> f64 {
+        self.inner.build_time.as_secs_f64()
+    }
+
+    /// Number of BVH nodes.
+    #[getter]
+    fn n_nodes(&self) -> usize {
+        self.inner.bvh.nodes.len()
+    }
+}
