@@ -1,6 +1,9 @@
 """Shared fixtures and hypothesis settings.
 
 Profiles: "default" (what CI runs) and "thorough" (HYPOTHESIS_PROFILE=thorough, 10x examples).
+
+With BATECHO_FORBID_SKIPS=1 (set by .ci/run) a run with any skipped test fails: everything a
+test needs is in the repository or installed by the test extra.
 """
 
 from __future__ import annotations
@@ -27,6 +30,17 @@ settings.register_profile(
     print_blob=True,
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if os.environ.get("BATECHO_FORBID_SKIPS") != "1" or exitstatus != 0:
+        return
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    skipped = reporter.stats.get("skipped", []) if reporter else []
+    if skipped:
+        for rep in skipped:
+            reporter.write_line(f"SKIPPED (forbidden by BATECHO_FORBID_SKIPS): {rep.nodeid}")
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
 
 @pytest.fixture(scope="session")

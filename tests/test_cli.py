@@ -19,13 +19,7 @@ import pytest
 
 import batecho
 from batecho.cli import main
-from batecho.paper import forest_available
 from batecho.scenefile import SceneFile, ScenefileError, setup_scenefile, sonar_params
-
-needs_forest = pytest.mark.skipif(
-    not forest_available(),
-    reason="batecho.trees / batecho.forest are not in this checkout yet: no forest scenes",
-)
 
 FIXTURES = Path(__file__).parent / "fixtures"
 EXAMPLES = Path(__file__).parents[1] / "examples"
@@ -185,7 +179,6 @@ def test_example_leaf_box_toml_runs(tmp_path):
                  "--no-plots", "-q"]) == 0  # fmt: skip
 
 
-@needs_forest
 def test_example_flight_toml_is_valid_and_builds():
     st = setup_scenefile(SceneFile.from_path(EXAMPLES / "flight.toml"))
     assert st.plan.flight is not None and len(st.plan.poses) > 100
@@ -340,7 +333,6 @@ def test_dataset_command_is_hooked_in(capsys):
     assert "seed" in capsys.readouterr().out
 
 
-@needs_forest
 def test_paper_table1_command(tmp_path, capsys):
     md, npz = tmp_path / "t1.md", tmp_path / "t1.npz"
     argv = ["paper", "table1", "--points", "1,5", "--trees", "1,2", "--repeats", "1",
@@ -359,7 +351,6 @@ def test_figure_eight_looking_at_its_own_middle_is_refused(tmp_path, capsys):
     assert "[flight] heading" in capsys.readouterr().err
 
 
-@needs_forest
 def test_unknown_tree_parameter_names_the_table(tmp_path, capsys):
     text = TINY.replace(
         'kind = "leaf_box"\ndensity_per_m3 = 3.0', 'kind = "tree"\n[scene.tree]\nheight_m = 3.0'
@@ -370,7 +361,6 @@ def test_unknown_tree_parameter_names_the_table(tmp_path, capsys):
     assert "[scene.tree]" in err and "height_m" in err
 
 
-@needs_forest
 def test_forest_scene_with_variants_and_given_positions():
     text = TINY.replace(
         'kind = "leaf_box"\ndensity_per_m3 = 3.0',

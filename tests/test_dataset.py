@@ -25,7 +25,6 @@ from batecho.dataset import (  # noqa: E402
     SpecError,
     SpecMismatchError,
     draw_sample,
-    forest_available,
     generate,
     open_dataset,
     sample_seed,
@@ -406,13 +405,6 @@ def test_line_flight_runs_toward_the_scene_centre():
 # ------------------------------------------------------------------------------ forest
 
 
-def test_forest_kind_without_batecho_forest_fails_with_a_clear_error(monkeypatch):
-    monkeypatch.setitem(sys.modules, "batecho.forest", None)  # as if it were not installed
-    assert not forest_available()
-    with pytest.raises(RuntimeError, match=r"needs batecho\.forest\.Forest"):
-        draw_sample(tiny_spec(**{"scene.kind": "forest"}), 0)
-
-
 def forest_spec(**changes) -> DatasetSpec:
     """A small forest: about 5 trees (one variant) on 10 m x 10 m, circled at 3 m altitude."""
     base = {
@@ -439,9 +431,6 @@ def test_forest_spec_with_drawn_tree_params_round_trips_through_toml():
     assert "tree_params = { trunk_height = { uniform = [3.0, 5.0] } }" in spec.to_toml()
 
 
-@pytest.mark.skipif(
-    not forest_available(), reason="batecho.forest (Forest.from_ipp) is not importable yet"
-)
 def test_forest_dataset_generates_verifies_and_labels_its_draws(tmp_path):
     spec = forest_spec()
     generate(spec, tmp_path / "forest.zarr", workers=1, progress=False)

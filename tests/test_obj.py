@@ -23,11 +23,7 @@ from batecho.trees.objfile import (
 )
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "obj"
-TREES = Path(__file__).resolve().parents[1].parent / "shared" / "assets" / "trees-cc0"
-needs_trees = pytest.mark.skipif(
-    not (TREES / "Tree_2.obj").is_file() or not (TREES / "Birch_1.obj").is_file(),
-    reason=f"CC0 tree meshes not found in {TREES}",
-)
+TREES = Path(__file__).resolve().parent / "data" / "trees-cc0"  # CC0 meshes, see LICENSE.txt
 
 PENTAGON_AREA = 2.5 * math.sin(2 * math.pi / 5)
 
@@ -611,7 +607,6 @@ def test_to_trimesh_passes_bark_and_leaf_cards(monkeypatch):
 # --- the real CC0 trees ------------------------------------------------------------------------
 
 
-@needs_trees
 @pytest.mark.parametrize(
     ("name", "height", "n_patch", "n_face", "leaf_group"),
     [("Tree_2", 5.43, 28, 336, "Tree_Leaves"), ("Birch_1", 9.48, 46, 552, "Birch_Leaves")],
@@ -628,7 +623,6 @@ def test_cc0_tree_loads_with_plausible_leaves(name, height, n_patch, n_face, lea
     assert patch.leaf_areas.sum() == pytest.approx(face.leaf_areas.sum(), rel=1e-12)
 
 
-@needs_trees
 @pytest.mark.parametrize("name", ["Tree_2", "Birch_1"])
 def test_cc0_tree_is_z_up_with_its_height(name):
     verts, _ = raw_faces(TREES / f"{name}.obj")
@@ -645,21 +639,18 @@ def test_cc0_tree_is_z_up_with_its_height(name):
     assert m.bark_vertices[:, 2].max() <= verts[:, 1].max()
 
 
-@needs_trees
 def test_cc0_tree_2_is_about_5_4_units_tall():
     m = load_quiet(TREES / "Tree_2.obj", up="y", per="face")
     lo, hi = m.bounds()
     assert 5.2 < hi[2] - lo[2] < 5.6
 
 
-@needs_trees
 def test_birch_degenerate_bark_faces_are_reported():
     with pytest.warns(ObjWarning, match="3 degenerate faces skipped"):
         m = load_obj(TREES / "Birch_1.obj", up="y")
     assert m.n_degenerate_faces == 3
 
 
-@needs_trees
 @pytest.mark.parametrize("name", ["Tree_2", "Birch_1"])
 def test_cc0_tree_round_trip_gives_same_disks(tmp_path, name):
     m = load_quiet(TREES / f"{name}.obj", up="y")

@@ -18,19 +18,11 @@ from batecho.paper import (
     PAPER_TABLE1,
     Table1Result,
     draw_tree_positions,
-    forest_available,
     machine_info,
     make_forest,
     paper_figures,
     table1,
 )
-
-needs_forest = pytest.mark.skipif(
-    not forest_available(),
-    reason="batecho.trees / batecho.forest are not in this checkout yet: the paper's tree "
-    "scenes cannot be grown",
-)
-
 
 # ---------------------------------------------------------------- empty and full lobes
 
@@ -61,7 +53,6 @@ def one_tree():
     return forest, batecho.Scene(forest.leaves)
 
 
-@needs_forest
 def test_empty_lobe_gives_an_exactly_zero_echo_tree(one_tree):
     _, scene = one_tree
     sonar = batecho.Sonar(beamwidth_deg=10)
@@ -73,7 +64,6 @@ def test_empty_lobe_gives_an_exactly_zero_echo_tree(one_tree):
     assert np.all(e.impulse[silent] == 0.0)
 
 
-@needs_forest
 def test_pose_facing_the_crown_gives_a_nonzero_echo_tree(one_tree):
     forest, scene = one_tree
     crown = forest.leaves.centers.mean(axis=0)
@@ -153,7 +143,6 @@ def small_table():
     return table1(points=(1, 5), trees=(1, 2), seed=3, repeats=1, timing_runs=1)
 
 
-@needs_forest
 def test_table1_has_the_requested_grid(small_table):
     r = small_table
     assert r.points == (1, 5) and r.trees == (1, 2)
@@ -161,14 +150,12 @@ def test_table1_has_the_requested_grid(small_table):
     assert r.n_leaves_scene.shape == (2, 1) and r.build_times_s.shape == (2, 1)
 
 
-@needs_forest
 def test_table1_times_and_leaf_counts_are_positive(small_table):
     r = small_table
     assert np.all(r.times_s > 0) and np.all(r.build_times_s > 0)
     assert np.all(r.n_leaves_scene > 0) and np.all(r.n_leaves_lobe > 0)
 
 
-@needs_forest
 def test_table1_forest_depends_on_seed_and_tree_count_only():
     a = table1(points=(1,), trees=(2,), seed=3, repeats=1, timing_runs=1)
     b = table1(points=(5, 1), trees=(1, 2), seed=3, repeats=1, timing_runs=1)
@@ -176,7 +163,6 @@ def test_table1_forest_depends_on_seed_and_tree_count_only():
     assert a.n_leaves_lobe[0, 0, 0] == b.n_leaves_lobe[1, 1, 0]
 
 
-@needs_forest
 def test_table1_records_the_machine_and_the_tree_model(small_table):
     s = small_table.settings
     assert s["machine"]["cpu_count"] >= 1 and s["tree"]["function"].startswith("batecho.trees.")
@@ -203,7 +189,6 @@ def test_machine_info_names_the_cpu_family_model_and_vector_instructions():
 # --------------------------------------------------------------------------- figures
 
 
-@needs_forest
 def test_paper_figures_writes_decodable_pngs_and_data(tmp_path):
     written = paper_figures(tmp_path, seed=4, echo_pulses=12, dpi=50)
     pngs = [p for p in written.values() if p.suffix == ".png"]

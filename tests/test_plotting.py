@@ -15,7 +15,6 @@ from matplotlib.figure import Figure
 
 import batecho
 from batecho.echoes.canonical import canonical_leaf_box
-from batecho.paper import forest_available
 from batecho.plotting import (
     lobe_surface,
     plot_echo_image,
@@ -192,7 +191,6 @@ def test_lobe_surface_bounds_the_counting_leaves(box, sonar, poses):
     assert math.isclose(sr[0], 10.0)
 
 
-@pytest.mark.skipif(not forest_available(), reason="batecho.forest is not in this checkout yet")
 def test_plot_scene_3d_draws_a_forests_bark():
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 

@@ -142,21 +142,14 @@ def _canonical(out: Path, seed: int) -> list[Path]:
     ]
 
 
-def demo_toml(
-    seed: int, trees: int, beamwidth: float, quadrotor: str, pulse_rate: float, forest: bool
-) -> str:
-    """The scene file the demo runs (a forest when available, else the canonical box)."""
-    if forest:
-        what = f"{trees} trees from the paper's IPP"
-        scene = (
-            'kind = "forest"\n'
-            f"n_trees = {trees}              # the paper's IPP, conditioned on {trees} trees"
-        )
-        altitude = 5.0
-    else:
-        what = "Ming's canonical leaf box (no forest module installed)"
-        scene = 'kind = "leaf_box"         # 25 leaves/m^3 in x 1..10 m, y and z -2..2 m'
-        altitude = 0.0
+def demo_toml(seed: int, trees: int, beamwidth: float, quadrotor: str, pulse_rate: float) -> str:
+    """The scene file the demo runs: a forest from the paper's IPP, circled."""
+    what = f"{trees} trees from the paper's IPP"
+    scene = (
+        'kind = "forest"\n'
+        f"n_trees = {trees}              # the paper's IPP, conditioned on {trees} trees"
+    )
+    altitude = 5.0
     if quadrotor == "none":
         what += ", kinematic pulses on a circle"
         flight = 'mode = "kinematic"\nn_pulses = 36'
@@ -172,7 +165,6 @@ def demo_toml(
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    from .._optional import forest_available
     from ..scenefile.file import SceneFile
     from ..scenefile.run import run_scenefile
 
@@ -181,12 +173,7 @@ def run_demo(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     files = _canonical(out, args.seed)
-    have_forest = forest_available()
-    if not have_forest:
-        say("batecho.forest is not installed: the flight circles the canonical leaf box")
-    text = demo_toml(
-        args.seed, args.trees, args.beamwidth, args.quadrotor, args.pulse_rate, have_forest
-    )
+    text = demo_toml(args.seed, args.trees, args.beamwidth, args.quadrotor, args.pulse_rate)
     (out / "demo.toml").write_text(text, encoding="utf-8")
     files.append(out / "demo.toml")
     sf = SceneFile.from_string(text, out / "demo.toml")

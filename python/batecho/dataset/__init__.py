@@ -23,7 +23,7 @@ from .pipeline import (
     generate,
     sample_seed,
 )
-from .scenes import SCENE_KINDS, BuiltScene, SceneKind, forest_available
+from .scenes import SCENE_KINDS, BuiltScene, SceneKind
 from .spec import (
     DatasetSpec,
     Dist,
@@ -68,7 +68,6 @@ __all__ = [
     "VerifyReport",
     "compute_chunk",
     "draw_sample",
-    "forest_available",
     "generate",
     "open_dataset",
     "read_spec",

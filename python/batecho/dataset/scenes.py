@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from .._optional import forest_available, forest_modules
+from ..forest.forest import Forest
 from ..forest.scene import Scene
 from ..trees.leaves import Leaves
 from .spec import DatasetSpec, Dist
 
-__all__ = ["SCENE_KINDS", "BuiltScene", "SceneKind", "draw_leaf_shapes", "forest_available"]
+__all__ = ["SCENE_KINDS", "BuiltScene", "SceneKind", "draw_leaf_shapes"]
 
 
 @dataclass(frozen=True)
@@ -114,17 +114,6 @@ def _leaf_box_labels(spec: DatasetSpec) -> tuple[str, ...]:
 # ----------------------------------------------------------------------------- forest
 
 
-def _import_forest() -> Any:
-    try:
-        _, forest = forest_modules()
-    except RuntimeError as exc:
-        raise RuntimeError(
-            'scene.kind = "forest" needs batecho.forest.Forest, which this installation of '
-            f'batecho does not have ({exc}); use scene.kind = "leaf_box"'
-        ) from None
-    return forest.Forest
-
-
 def _forest_intensity(spec: DatasetSpec, scale: float) -> Any:
     from ..forest.ipp import SquaredExponentialMixture, paper_intensity
 
@@ -137,7 +126,6 @@ def _forest_intensity(spec: DatasetSpec, scale: float) -> Any:
 def _forest(spec: DatasetSpec, rng: np.random.Generator) -> BuiltScene:
     """A forest from ``batecho.forest.Forest.from_ipp``; uses ``Forest.scene()``,
     ``.n_trees``, ``.mean_position`` ((2,) or (3,) m) and ``.bounds()`` ((3,), (3,) m)."""
-    Forest = _import_forest()
     fs = spec.scene.forest
     scale = fs.intensity_scale.draw(rng)
     scale_sd = fs.scale_sd.draw(rng)

@@ -15,7 +15,6 @@ drawn from the paper's inhomogeneous Poisson process (:func:`batecho.paper_inten
 
 from __future__ import annotations
 
-from .._optional import forest_available
 from ..forest.ipp import draw_tree_positions
 from ..forest.models import make_forest
 from .figures import paper_figures
@@ -44,7 +43,6 @@ __all__ = [
     "TABLE1_BEAMWIDTH_DEG",
     "Table1Result",
     "draw_tree_positions",
-    "forest_available",
     "machine_info",
     "make_forest",
     "paper_figures",

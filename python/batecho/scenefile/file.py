@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from .._optional import forest_modules
 from ..sonar.beam import Beam
 from ..sonar.sonar import Sonar
 from ..trees.leaves import Leaves
@@ -154,7 +153,6 @@ class SceneFile:
                 if mesh.leaves is None:
                     raise self._err(f"[scene] path: {p} has no leaf faces (see leaf_patterns)")
                 return mesh, mesh.leaves, None
-            forest_modules()  # a RuntimeError naming what is missing
             from ..forest.ipp import PAPER_WINDOW, draw_tree_positions, sample_ipp
             from ..forest.models import make_forest
 
