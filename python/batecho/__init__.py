@@ -34,6 +34,7 @@ from .forest.ipp import (
 from .forest.scene import Scene
 from .sonar.absorption import Atmosphere
 from .sonar.beam import Beam, horseshoe_bat_beamwidth_deg
+from .sonar.receivers import Receiver
 from .sonar.sonar import Sonar
 from .trees.branching import Branching, trunk_branching
 from .trees.grow import grow_tree
@@ -100,6 +101,7 @@ __all__ = [
     "Poses",
     "Quadrotor",
     "RasterIntensity",
+    "Receiver",
     "ReferenceTree",
     "Scene",
     "SceneFile",

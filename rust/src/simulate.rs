@@ -1,5 +1,7 @@
 //! Echoes for many poses: the lobe query, the band spectrum and the impulse response of each
-//! pose, poses in parallel.
+//! pose, poses in parallel. Receivers at their own places take [`receivers`]' path.
+
+pub mod receivers;
 
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::spectrum::band_spectrum;
@@ -14,9 +16,11 @@ use crate::sonar::Sonar;
 use rayon::prelude::*;
 
 /// Echoes of `p` poses: spectra `(p, M)` as separate real and imaginary parts, impulses
-/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose.
+/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose. With `R`
+/// receivers of their own (`n_receivers = R > 0`), `(p, R, M)`, `(p, R, n)` and `(p, R)`.
 pub struct Echoes {
     pub n_bins: usize,
+    pub n_receivers: usize,
     pub spectrum_re: Vec<f64>,
     pub spectrum_im: Vec<f64>,
     pub impulse: Vec<f64>,
@@ -51,6 +55,9 @@ pub fn farthest_members(
     if rayon::current_thread_index().is_none() {
         // (on a pool thread, as `simulate`)
         return rayon::scope(|_| farthest_members(scene, sonar, poses, search));
+    }
+    if !sonar.params.receivers.is_empty() {
+        return receivers::farthest_heard(scene, sonar, poses, search);
     }
     poses
         .par_iter()
@@ -120,6 +127,9 @@ pub fn simulate(
             }
         }
     };
+    if !sonar.params.receivers.is_empty() {
+        return receivers::simulate_heard(scene, sonar, poses, with_impulse, search, method, plan);
+    }
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     // Per pose: spectrum (re, im), impulse, number of counting leaves.
@@ -159,6 +169,7 @@ pub fn simulate(
         .collect::<Result<Vec<_>>>()?;
     let mut out = Echoes {
         n_bins: m,
+        n_receivers: 0,
         spectrum_re: Vec::with_capacity(poses.len() * m),
         spectrum_im: Vec::with_capacity(poses.len() * m),
         impulse: Vec::with_capacity(if with_impulse { poses.len() * n } else { 0 }),

@@ -27,6 +27,10 @@ class Echoes:
     ``spectrum`` (p, M) complex128: the windowed band spectrum ``Y_k`` at ``freqs`` (M,) Hz.
     ``impulse`` (p, n_samples) float64: ``2 irfft(Y, n)`` at ``times`` (n_samples,) s.
     ``n_leaves`` (p,): how many leaves counted for each pose.
+
+    With receivers of their own (``Sonar(receivers=...)``, ``R`` of them), every per-pose
+    array has a receiver axis after the pose axis: ``spectrum`` (p, R, M), ``impulse``
+    (p, R, n_samples), ``n_leaves`` (p, R).
     """
 
     spectrum: np.ndarray
@@ -42,8 +46,13 @@ class Echoes:
         """(n_samples,) range of each sample, ``v t / 2`` (m)."""
         return self.sonar.sound_speed * self.times / 2.0
 
+    @property
+    def n_receivers(self) -> int:
+        """The length of the receiver axis (0: none, the echo heard at the emitter)."""
+        return self.sonar.n_receivers
+
     def envelope(self) -> np.ndarray:
-        """(p, n_samples) envelope ``|analytic signal|`` of the impulse responses."""
+        """(p, [R,] n_samples) envelope ``|analytic signal|`` of the impulse responses."""
         from scipy.signal import hilbert
 
         return np.abs(hilbert(self.impulse, axis=-1))
@@ -122,18 +131,34 @@ def simulate(
     )
 
 
-def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") -> np.ndarray:
+def lobe_members(
+    scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh", receiver: int | None = None
+) -> np.ndarray:
     """Indices (ascending, int64) of the leaves that count for one pose.
 
     ``search="bvh"`` traverses the BVH; ``"brute_force"`` tests every leaf. Both apply the same
-    exact f64 test per leaf, so they return the same set.
+    exact f64 test per leaf, so they return the same set. For a sonar with receivers of its
+    own, ``receiver`` (an index) names the one whose counting leaves are wanted.
     """
     sonar, pose = _check(sonar, pose)
     if len(pose) != 1:
         raise ValueError(f"lobe_members takes one pose; got {len(pose)} (index it: poses[i])")
+    if receiver is not None and (
+        isinstance(receiver, bool) or not isinstance(receiver, (int, np.integer))
+    ):
+        raise TypeError(f"receiver must be an int index or None, got {receiver!r}")
+    if receiver is not None and receiver < 0:
+        raise ValueError(f"receiver must be >= 0, got {receiver}")
     sc = as_scene(scene)
     return _core.lobe_members(
-        sc._core, sonar._core, pose.positions, pose.forward, pose.up, pose.left, search
+        sc._core,
+        sonar._core,
+        pose.positions,
+        pose.forward,
+        pose.up,
+        pose.left,
+        search,
+        None if receiver is None else int(receiver),
     )
 
 
