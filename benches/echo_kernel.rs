@@ -3,17 +3,21 @@
 //! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force;
 //! - one whole fast pulse (lobe query and spectrum, tol 1e-6) with 1e5 and 1e6 leaves in the
 //!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
-//! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order.
+//! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order;
+//! - a whole pulse (`simulate`) heard by one ear against two ears (and monostatic), exact and
+//!   fast (tol 1e-6), at 1e4 and 1e5 leaves in the lobe.
 
 use batecho::echo::{leaf_term, sum_terms, LeafTerm};
 use batecho::fast::pulse::fast_pulse;
 use batecho::fast::FastSonar;
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
 use batecho::lobe::{candidates, members, Search};
+use batecho::physics::beam::GaussianBeam;
 use batecho::physics::pose::Pose;
 use batecho::scene::Scene;
+use batecho::simulate::{simulate, Method};
 use batecho::sonar::LobeRule;
-use batecho::sonar::{Sonar, SonarParams};
+use batecho::sonar::{Receiver, Sonar, SonarParams};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 
@@ -203,5 +207,69 @@ fn bench_pulse(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_spectrum, bench_fast, bench_lobe, bench_pulse);
+/// Ears 2 cm apart, turned 30 degrees outward, each with a 40-degree beam.
+fn ears(n: usize) -> Vec<Receiver> {
+    let ear = |side: f64| Receiver {
+        offset: [0.0, side * 0.01, 0.0],
+        beam: Some(
+            GaussianBeam::circular(40f64.to_radians())
+                .and_then(|b| {
+                    GaussianBeam::new(
+                        1.0,
+                        b.sigma_x,
+                        b.sigma_y,
+                        0.0,
+                        side * 30f64.to_radians(),
+                        0.0,
+                    )
+                })
+                .unwrap(),
+        ),
+    };
+    [ear(1.0), ear(-1.0)][..n].to_vec()
+}
+
+fn bench_ears(c: &mut Criterion) {
+    let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+    let sonar_with = |receivers: Vec<Receiver>| {
+        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        p.lobe = LobeRule::Cone {
+            half_angle: 75f64.to_radians(),
+        };
+        p.receivers = receivers;
+        FastSonar::new(Sonar::new(p).unwrap())
+    };
+    let sonars = [
+        ("monostatic", sonar_with(Vec::new())),
+        ("one_ear", sonar_with(ears(1))),
+        ("two_ears", sonar_with(ears(2))),
+    ];
+    for &n in &[10_000usize, 100_000] {
+        let scene = box_scene(n);
+        let mut g = c.benchmark_group(format!("ears_pulse_{n}"));
+        g.sample_size(10);
+        for (method, m) in [
+            ("exact", Method::Exact),
+            ("fast_tol1e-6", Method::Fast { tol: 1e-6 }),
+        ] {
+            for (name, s) in &sonars {
+                let run = || simulate(&scene, s, &[pose], false, Search::Bvh, m).unwrap();
+                assert!(run().n_leaves.iter().all(|&k| k as usize == n));
+                g.bench_function(BenchmarkId::new(method, name), |b| {
+                    b.iter(|| black_box(run()))
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(
+    benches,
+    bench_spectrum,
+    bench_fast,
+    bench_lobe,
+    bench_pulse,
+    bench_ears
+);
 criterion_main!(benches);

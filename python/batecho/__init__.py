@@ -34,6 +34,7 @@ from .forest.ipp import (
 from .forest.scene import Scene
 from .sonar.absorption import Atmosphere
 from .sonar.beam import Beam, horseshoe_bat_beamwidth_deg
+from .sonar.call import Call
 from .sonar.receivers import Receiver
 from .sonar.sonar import Sonar
 from .trees.branching import Branching, trunk_branching
@@ -90,6 +91,7 @@ __all__ = [
     "Beam",
     "BranchLayout",
     "Branching",
+    "Call",
     "Echoes",
     "Flight",
     "Forest",

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -10,6 +12,7 @@ import numpy as np
 from .. import _core
 from ..flight.poses import Poses
 from ..forest.scene import as_scene
+from ..sonar.call import Call
 from ..sonar.sonar import Sonar
 
 #: The methods of :func:`simulate`.
@@ -59,6 +62,53 @@ class Echoes:
 
     def __len__(self) -> int:
         return self.spectrum.shape[0]
+
+    # The call, the noise and the matched filter (docs/model.md §5b) -------------------------
+    def received(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
+        """(p, [R,] n_samples) what the receivers record: the impulse responses convolved with
+        ``call`` (by FFT), truncated to the record, plus white Gaussian noise of rms
+        ``noise_rms`` drawn from ``rng`` (a Generator, an int seed or None)."""
+        from .received import received
+
+        return received(self.impulse, self.sonar.fs, call, noise_rms, rng)
+
+    def compressed(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
+        """(p, [R,] n_samples) the pulse-compressed output: :meth:`received` through the
+        matched filter of ``call`` (its correlation with the call over the call's energy), so
+        that an echo arriving at ``t0`` peaks at ``t0`` with the impulse response's scale."""
+        from .received import compressed
+
+        return compressed(self.impulse, self.sonar.fs, call, noise_rms, rng)
+
+    # Exports -----------------------------------------------------------------------------
+    def to_xarray(self):
+        """An ``xarray.Dataset`` with dimensions (pose, receiver, time, frequency), units and
+        the sonar's parameters (see :func:`batecho.echoes.export.to_xarray`)."""
+        from .export import to_xarray
+
+        return to_xarray(self)
+
+    def to_wav(
+        self,
+        path: str | os.PathLike,
+        time_expansion: float = 10.0,
+        receiver: int | None = None,
+        call: Call | None = None,
+        noise_rms: float = 0.0,
+        rng: Any = None,
+    ) -> Path:
+        """A WAV file to listen to: time-expanded ``time_expansion`` times (rate
+        ``fs / time_expansion``), normalised, one channel per receiver (stereo for two ears),
+        the poses one after another (see :func:`batecho.echoes.export.to_wav`)."""
+        from .export import to_wav
+
+        return to_wav(self, path, time_expansion, receiver, call, noise_rms, rng)
+
+    def to_mat(self, path: str | os.PathLike) -> Path:
+        """A MATLAB MAT file of the echoes (see :func:`batecho.echoes.export.to_mat`)."""
+        from .export import to_mat
+
+        return to_mat(self, path)
 
 
 def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import time
 from collections.abc import Callable
@@ -16,7 +15,7 @@ import numpy as np
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.scene import Scene
 from ..outputs.npz import write_npz
-from ..sonar.beam import Beam
+from ..sonar.record import sonar_params
 from ..sonar.sonar import Sonar
 from .file import SceneFile
 from .flightplan import FlightPlan
@@ -31,37 +30,6 @@ __all__ = [
     "simulate_options",
     "sonar_params",
 ]
-
-
-def sonar_params(sonar: Sonar) -> dict[str, Any]:
-    """A :class:`batecho.Sonar`'s parameters as a dict that is also a valid ``[sonar]`` table
-    (None values left out; ``beam``/``receiver``/``absorption`` as sub-tables)."""
-    out: dict[str, Any] = {}
-    for f in dataclasses.fields(sonar):
-        if f.name.startswith("_"):
-            continue
-        v = getattr(sonar, f.name)
-        if v is None:
-            continue
-        if f.name in ("beam", "receiver", "absorption"):
-            sub = {
-                g.name: list(getattr(v, g.name))
-                if isinstance(getattr(v, g.name), tuple)
-                else getattr(v, g.name)
-                for g in dataclasses.fields(v)
-                if getattr(v, g.name) is not None
-            }
-            out[f.name] = sub
-        elif isinstance(v, tuple):
-            out[f.name] = list(v)
-        else:
-            out[f.name] = v
-    if sonar.beam is not None and sonar.beam.beamwidth_deg is not None:
-        defaults = Beam(beamwidth_deg=sonar.beam.beamwidth_deg)
-        if sonar.beam == defaults:
-            out.pop("beam")
-            out["beamwidth_deg"] = sonar.beam.beamwidth_deg
-    return out
 
 
 def simulate_options(method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL) -> dict[str, Any]:
