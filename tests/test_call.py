@@ -179,8 +179,8 @@ def test_the_xarray_dataset_round_trips_through_zarr(two_ears, tmp_path):
     assert list(ds["receiver"].values) == ["left", "right"]
     assert ds["time"].attrs["units"] == "s" and ds["frequency"].attrs["units"] == "Hz"
     assert ds.attrs["fs_hz"] == 400e3
-    ds.to_zarr(tmp_path / "echoes.zarr")
-    back = xr.open_zarr(tmp_path / "echoes.zarr").load()
+    ds.to_zarr(tmp_path / "echoes.zarr", consolidated=False)
+    back = xr.open_zarr(tmp_path / "echoes.zarr", consolidated=False).load()
     assert np.array_equal(back["impulse"].values, two_ears.impulse)
     assert np.array_equal(back["spectrum"].values, two_ears.spectrum)
     assert json.loads(back.attrs["sonar_json"]) == json.loads(ds.attrs["sonar_json"])

@@ -20,12 +20,11 @@ from ..sonar.record import sonar_params
 
 if TYPE_CHECKING:
     from ..sonar.call import Call
-    from .simulate import Echoes
 
 __all__ = ["to_mat", "to_wav", "to_xarray", "with_receiver_axis"]
 
 
-def with_receiver_axis(echoes: Echoes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def with_receiver_axis(echoes: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(spectrum (p, R, M), impulse (p, R, n), n_leaves (p, R))``: a sonar without receivers
     of its own gets a receiver axis of length 1."""
     if echoes.n_receivers:
@@ -33,23 +32,26 @@ def with_receiver_axis(echoes: Echoes) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return echoes.spectrum[:, None], echoes.impulse[:, None], echoes.n_leaves[:, None]
 
 
-def _receiver_table(echoes: Echoes) -> tuple[list[str], np.ndarray]:
+def _receiver_table(echoes: Any) -> tuple[list[str], np.ndarray]:
     """Receiver names and offsets (R, 3) (m, in the sonar's frame)."""
     rxs = echoes.sonar.receivers
     if not rxs:
         return ["emitter"], np.zeros((1, 3))
     names = ["left", "right"] if len(rxs) == 2 and _is_binaural(echoes) else None
     names = names or [f"receiver {j}" for j in range(len(rxs))]
-    return names, np.array([r.offset_m for r in rxs], dtype=np.float64)
+    offsets = np.array([r.offset_m for r in rxs], dtype=np.float64)
+    if echoes.receiver is not None:  # one receiver's echoes
+        return [names[echoes.receiver]], offsets[echoes.receiver : echoes.receiver + 1]
+    return names, offsets
 
 
-def _is_binaural(echoes: Echoes) -> bool:
+def _is_binaural(echoes: Any) -> bool:
     rxs = echoes.sonar.receivers
     assert rxs is not None
     return rxs[0].offset_m[1] > 0 > rxs[1].offset_m[1]
 
 
-def _scalar_attrs(echoes: Echoes) -> dict[str, Any]:
+def _scalar_attrs(echoes: Any) -> dict[str, Any]:
     s = echoes.sonar
     return {
         "fs_hz": float(s.fs),
@@ -66,7 +68,7 @@ def _scalar_attrs(echoes: Echoes) -> dict[str, Any]:
     }
 
 
-def to_xarray(echoes: Echoes):
+def to_xarray(echoes: Any):
     """The echoes as an ``xarray.Dataset`` (needs the ``xarray`` extra: ``pip install
     batecho[xarray]``).
 
@@ -133,7 +135,7 @@ def _pcm16(x: np.ndarray) -> np.ndarray:
 
 
 def to_wav(
-    echoes: Echoes,
+    echoes: Any,
     path: str | os.PathLike,
     time_expansion: float = 10.0,
     receiver: int | None = None,
@@ -178,7 +180,7 @@ def _receiver_index(receiver: Any, n: int) -> int:
     return int(receiver)
 
 
-def to_mat(echoes: Echoes, path: str | os.PathLike) -> Path:
+def to_mat(echoes: Any, path: str | os.PathLike) -> Path:
     """Write the echoes as a MATLAB MAT file (``scipy.io.savemat``, format 5): ``impulse``
     (pose, receiver, time), ``spectrum`` (pose, receiver, frequency), ``n_leaves``, ``times``
     (s), ``freqs`` (Hz), ``positions``, ``forward``, ``up``, ``left`` (pose, 3),

@@ -43,6 +43,9 @@ class Echoes:
     n_leaves: np.ndarray
     sonar: Sonar
     poses: Poses
+    #: For the echoes of one receiver taken from a sonar's receivers (:meth:`for_receiver`),
+    #: its index there.
+    receiver: int | None = None
 
     @property
     def ranges(self) -> np.ndarray:
@@ -51,8 +54,28 @@ class Echoes:
 
     @property
     def n_receivers(self) -> int:
-        """The length of the receiver axis (0: none, the echo heard at the emitter)."""
-        return self.sonar.n_receivers
+        """The length of the receiver axis (0: none)."""
+        return self.spectrum.shape[1] if self.spectrum.ndim == 3 else 0
+
+    def for_receiver(self, j: int) -> Echoes:
+        """The echoes of receiver ``j`` alone: every array without the receiver axis (so
+        that the plots of one receiver's echoes take them)."""
+        if not self.n_receivers:
+            raise ValueError("these echoes have no receiver axis (Sonar(receivers=...))")
+        if isinstance(j, bool) or not isinstance(j, (int, np.integer)):
+            raise TypeError(f"receiver must be an int index, got {j!r}")
+        if not 0 <= j < self.n_receivers:
+            raise ValueError(f"receiver {j} out of range: the echoes have {self.n_receivers}")
+        return Echoes(
+            spectrum=self.spectrum[:, j],
+            freqs=self.freqs,
+            impulse=self.impulse[:, j],
+            times=self.times,
+            n_leaves=self.n_leaves[:, j],
+            sonar=self.sonar,
+            poses=self.poses,
+            receiver=int(j),
+        )
 
     def envelope(self) -> np.ndarray:
         """(p, [R,] n_samples) envelope ``|analytic signal|`` of the impulse responses."""
