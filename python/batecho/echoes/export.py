@@ -21,7 +21,7 @@ from ..sonar.record import sonar_params
 if TYPE_CHECKING:
     from ..sonar.call import Call
 
-__all__ = ["to_mat", "to_wav", "to_xarray", "with_receiver_axis"]
+__all__ = ["to_mat", "to_wav", "to_xarray", "with_receiver_axis", "write_wav"]
 
 
 def with_receiver_axis(echoes: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -68,7 +68,7 @@ def _scalar_attrs(echoes: Any) -> dict[str, Any]:
     }
 
 
-def to_xarray(echoes: Any):
+def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None = None):
     """The echoes as an ``xarray.Dataset`` (needs the ``xarray`` extra: ``pip install
     batecho[xarray]``).
 
@@ -78,6 +78,10 @@ def to_xarray(echoes: Any):
     (pose, xyz). Coordinates: ``time`` (s), ``frequency`` (Hz), ``range`` along time (m,
     ``v t / 2``), the receivers' names and ``receiver_offset`` (receiver, xyz; m, in the
     sonar's frame). Attributes: the sonar's parameters (``sonar_json`` holds every one).
+
+    With ``call``, also ``received`` (pose, receiver, time): what the receivers record (given
+    as ``received``, or :meth:`Echoes.received` without noise), and the call's ``call``
+    samples along ``call_time`` (s).
     """
     try:
         import xarray as xr
@@ -124,7 +128,22 @@ def to_xarray(echoes: Any):
         },
         attrs=_scalar_attrs(echoes),
     )
+    if call is not None:
+        rec = _received(echoes, call, received)
+        ds["received"] = (
+            ("pose", "receiver", "time"),
+            rec,
+            {"units": "1", "long_name": "the impulse response convolved with the call"},
+        )
+        ds["call"] = ("call_time", call.samples, {"units": "1", "long_name": call.name})
+        ds = ds.assign_coords(call_time=("call_time", call.times, {"units": "s"}))
     return ds
+
+
+def _received(echoes: Any, call: Call, received: np.ndarray | None) -> np.ndarray:
+    """What the receivers record, with a receiver axis."""
+    rec = echoes.received(call) if received is None else np.asarray(received)
+    return rec if echoes.n_receivers else rec[:, None]
 
 
 def _pcm16(x: np.ndarray) -> np.ndarray:
@@ -151,19 +170,26 @@ def to_wav(
     Without ``call`` the impulse responses are written; with it, what the receivers record
     (:meth:`Echoes.received`, with ``noise_rms`` and ``rng``).
     """
-    from scipy.io import wavfile
-
-    from .._validate import positive_scalar
-
-    te = positive_scalar(time_expansion, "time_expansion")
-    rate = round(echoes.sonar.fs / te)
-    if not 1 <= rate <= 2**31 - 1:
-        raise ValueError(f"fs / time_expansion = {echoes.sonar.fs / te:g} Hz is not a WAV rate")
     x = echoes.received(call, noise_rms, rng) if call is not None else echoes.impulse
     x = x if echoes.n_receivers else x[:, None]
     if receiver is not None:
         r = _receiver_index(receiver, x.shape[1])
         x = x[:, r : r + 1]
+    return write_wav(path, x, echoes.sonar.fs, time_expansion)
+
+
+def write_wav(path: str | os.PathLike, x: np.ndarray, fs: float, time_expansion: float) -> Path:
+    """Write ``x`` (pose, receiver, time) as a 16-bit WAV file: the poses one after another,
+    one channel per receiver, at the rate ``fs / time_expansion`` (rounded to the hertz),
+    normalised to 99 % of full scale."""
+    from scipy.io import wavfile
+
+    from .._validate import positive_scalar
+
+    te = positive_scalar(time_expansion, "time_expansion")
+    rate = round(fs / te)
+    if not 1 <= rate <= 2**31 - 1:
+        raise ValueError(f"fs / time_expansion = {fs / te:g} Hz is not a WAV rate")
     # (pose, receiver, time) -> (pose time, receiver)
     frames = np.ascontiguousarray(np.transpose(x, (0, 2, 1)).reshape(-1, x.shape[1]))
     data = _pcm16(frames)
@@ -180,21 +206,31 @@ def _receiver_index(receiver: Any, n: int) -> int:
     return int(receiver)
 
 
-def to_mat(echoes: Any, path: str | os.PathLike) -> Path:
+def to_mat(
+    echoes: Any,
+    path: str | os.PathLike,
+    call: Call | None = None,
+    received: np.ndarray | None = None,
+) -> Path:
     """Write the echoes as a MATLAB MAT file (``scipy.io.savemat``, format 5): ``impulse``
     (pose, receiver, time), ``spectrum`` (pose, receiver, frequency), ``n_leaves``, ``times``
     (s), ``freqs`` (Hz), ``positions``, ``forward``, ``up``, ``left`` (pose, 3),
     ``receiver_offsets`` (receiver, 3; m), ``receiver_names``, ``fs``, ``sound_speed``,
-    ``sonar_json`` and ``batecho_version``."""
+    ``sonar_json`` and ``batecho_version``; with ``call``, ``received`` (pose, receiver,
+    time: given, or :meth:`Echoes.received` without noise) and the ``call`` samples."""
     from scipy.io import savemat
 
     spec, imp, counts = with_receiver_axis(echoes)
     names, offsets = _receiver_table(echoes)
     poses = echoes.poses
     p = Path(path)
+    extra: dict[str, Any] = {}
+    if call is not None:
+        extra = {"received": _received(echoes, call, received), "call": call.samples}
     savemat(
         p,
-        {
+        extra
+        | {
             "impulse": imp,
             "spectrum": spec,
             "n_leaves": counts.astype(np.float64),

@@ -104,12 +104,13 @@ class Echoes:
         return compressed(self.impulse, self.sonar.fs, call, noise_rms, rng)
 
     # Exports -----------------------------------------------------------------------------
-    def to_xarray(self):
+    def to_xarray(self, call: Call | None = None, received: np.ndarray | None = None):
         """An ``xarray.Dataset`` with dimensions (pose, receiver, time, frequency), units and
-        the sonar's parameters (see :func:`batecho.echoes.export.to_xarray`)."""
+        the sonar's parameters; with ``call``, what the receivers record (see
+        :func:`batecho.echoes.export.to_xarray`)."""
         from .export import to_xarray
 
-        return to_xarray(self)
+        return to_xarray(self, call, received)
 
     def to_wav(
         self,
@@ -127,11 +128,17 @@ class Echoes:
 
         return to_wav(self, path, time_expansion, receiver, call, noise_rms, rng)
 
-    def to_mat(self, path: str | os.PathLike) -> Path:
-        """A MATLAB MAT file of the echoes (see :func:`batecho.echoes.export.to_mat`)."""
+    def to_mat(
+        self,
+        path: str | os.PathLike,
+        call: Call | None = None,
+        received: np.ndarray | None = None,
+    ) -> Path:
+        """A MATLAB MAT file of the echoes; with ``call``, what the receivers record (see
+        :func:`batecho.echoes.export.to_mat`)."""
         from .export import to_mat
 
-        return to_mat(self, path)
+        return to_mat(self, path, call, received)
 
 
 def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:

@@ -19,7 +19,7 @@ from ..sonar.record import sonar_params
 from ..sonar.sonar import Sonar
 from .file import SceneFile
 from .flightplan import FlightPlan
-from .schema import ScenefileError
+from .schema import RECEIVER_PLOTS, ScenefileError
 
 __all__ = [
     "RunResult",
@@ -142,6 +142,13 @@ def run_scenefile(
     files: list[Path] = []
     p = len(echoes)
     idx = sample_indices(p, oc["sample_points"], st.plan.closed)
+    call = sf.build_call(st.sonar.fs)
+    received = None
+    if call is not None:
+        say(f"receiving the call ({call!r})")
+        # (the noise's own stream of the file's seed)
+        noise_rng = np.random.default_rng([abs(int(sf.seed)), 34])
+        received = echoes.received(call, cfg["call"]["noise_rms"], noise_rng)
     if oc["npz"]:
         say("writing echoes.npz")
         scene_desc = {
@@ -169,6 +176,11 @@ def run_scenefile(
         }
         if oc["impulse"]:
             arrays["impulse"] = echoes.impulse
+        if echoes.n_receivers:
+            arrays["receiver_offsets"] = np.array([r.offset_m for r in st.sonar.receivers or ()])
+        if received is not None and call is not None:
+            arrays["received"] = received
+            arrays["call"] = call.samples
         if st.plan.flight is not None:
             fl = st.plan.flight
             arrays["flight_times"] = fl.times
@@ -180,12 +192,43 @@ def run_scenefile(
             "scene_json": scene_desc,
         }
         files.append(write_npz(out / "echoes.npz", arrays, records))
+    files += _exports(echoes, out, oc, call, received, say)
     if oc["obj"]:
         say("writing scene.obj")
         files.append(_write_scene_obj(st, out / "scene.obj"))
     if plots and oc["plots"]:
         files += _plots(st, echoes, idx, out, oc, say)
     return RunResult(st, echoes, files, timings)
+
+
+def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
+    """``[output] wav``, ``mat`` and ``xarray``: the received call where ``[call]`` is given,
+    else the impulse responses."""
+    files = []
+    if oc["wav"]:
+        say("writing echoes.wav")
+        files.append(_wav(echoes, out / "echoes.wav", oc["wav_time_expansion"], received))
+    if oc["mat"]:
+        say("writing echoes.mat")
+        files.append(echoes.to_mat(out / "echoes.mat", call=call, received=received))
+    if oc["xarray"]:
+        say("writing echoes.zarr")
+        import shutil
+
+        path = out / "echoes.zarr"
+        if path.exists():
+            shutil.rmtree(path)
+        ds = echoes.to_xarray(call=call, received=received)
+        ds.to_zarr(path, consolidated=False)
+        files.append(path)
+    return files
+
+
+def _wav(echoes, path: Path, time_expansion: float, received) -> Path:
+    from ..echoes.export import write_wav
+
+    x = echoes.impulse if received is None else received
+    return write_wav(path, x if echoes.n_receivers else x[:, None], echoes.sonar.fs, time_expansion)
 
 
 def _write_scene_obj(st: SimulationSetup, path: Path) -> Path:
@@ -195,6 +238,25 @@ def _write_scene_obj(st: SimulationSetup, path: Path) -> Path:
     from ..trees.objfile import write_obj
 
     return write_obj(path, leaves=st.scene.leaves)
+
+
+def _receiver_plot(name: str, echoes, best: int, st: SimulationSetup):
+    from ..outputs.binaural import (
+        plot_binaural_echo_images,
+        plot_binaural_impulses,
+        plot_interaural_differences,
+    )
+
+    x = st.plan.x
+    order_ok = len(np.unique(x)) == len(x)
+    kw: dict[str, Any] = dict(
+        x=x if order_ok else None, xlabel=st.plan.x_label if order_ok else "pulse"
+    )
+    if name == "binaural_impulses":
+        return plot_binaural_impulses(echoes, best)
+    if name == "binaural_echo_images":
+        return plot_binaural_echo_images(echoes, **kw)
+    return plot_interaural_differences(echoes, **kw)
 
 
 def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[Path]:
@@ -211,6 +273,10 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
 
     files = []
     dpi = oc["dpi"]
+    heard = echoes
+    if echoes.n_receivers:
+        # (the one-receiver plots draw the first receiver: the left ear of two)
+        echoes = echoes.for_receiver(0)
     best = int(idx[np.argmax(echoes.n_leaves[idx])])
 
     def save(fig, name):
@@ -223,7 +289,10 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
     for name in oc["plots"]:
         say(f"plotting {name}")
         if name == "scene":
-            members = [lobe_members(st.scene, st.sonar, st.plan.poses[int(i)]) for i in idx]
+            first = 0 if heard.n_receivers else None
+            members = [
+                lobe_members(st.scene, st.sonar, st.plan.poses[int(i)], receiver=first) for i in idx
+            ]
             fig = plot_scene_3d(
                 st.scene_object,
                 st.plan.poses,
@@ -262,4 +331,6 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
         elif name == "spectrum":
             fig = plot_spectrum(echoes, best)
             save(fig, "spectrum.png")
+        elif name in RECEIVER_PLOTS:
+            save(_receiver_plot(name, heard, best, st), f"{name}.png")
     return files
