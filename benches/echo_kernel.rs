@@ -5,13 +5,14 @@
 //!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
 //! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order;
 //! - a whole pulse (`simulate`) heard by one ear against two ears (and monostatic), exact and
-//!   fast (tol 1e-6), at 1e4 and 1e5 leaves in the lobe.
+//!   fast (tol 1e-6), at 1e4 and 1e5 leaves in the lobe; and the part the ears share (the
+//!   lobe query and the pass that makes every ear's terms) alone.
 
-use batecho::echo::{leaf_term, sum_terms, LeafTerm};
+use batecho::echo::{heard_terms, leaf_term, sum_terms, LeafTerm};
 use batecho::fast::pulse::fast_pulse;
 use batecho::fast::FastSonar;
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
-use batecho::lobe::{candidates, members, Search};
+use batecho::lobe::{candidates, candidates_heard, members, place_receivers, Search};
 use batecho::physics::beam::GaussianBeam;
 use batecho::physics::pose::Pose;
 use batecho::scene::Scene;
@@ -248,6 +249,15 @@ fn bench_ears(c: &mut Criterion) {
         let scene = box_scene(n);
         let mut g = c.benchmark_group(format!("ears_pulse_{n}"));
         g.sample_size(10);
+        for (name, s) in &sonars[1..] {
+            g.bench_function(BenchmarkId::new("lobe_and_terms", name), |b| {
+                b.iter(|| {
+                    let rxs = place_receivers(s, &pose);
+                    let cands = candidates_heard(&scene, s, &pose, &rxs, Search::Bvh);
+                    black_box(heard_terms(&scene, s, &pose, 0, &rxs, &cands).unwrap())
+                })
+            });
+        }
         for (method, m) in [
             ("exact", Method::Exact),
             ("fast_tol1e-6", Method::Fast { tol: 1e-6 }),

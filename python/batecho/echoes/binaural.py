@@ -65,19 +65,17 @@ def interaural_time_difference(
     lag = max(1, int(np.ceil(float(max_lag_s) * fs)))
     env_a = np.abs(hilbert(a[:, keep], axis=-1))
     env_b = np.abs(hilbert(b[:, keep], axis=-1))
+    from scipy.signal import correlate
+
     out = np.full(len(a), np.nan)
-    lags = np.arange(-lag, lag + 1)
     n = env_a.shape[-1]
+    lag = min(lag, n - 1)
+    lags = np.arange(-lag, lag + 1)
     for i in range(len(a)):
         if not (env_a[i].any() and env_b[i].any()):
             continue
-        # c[k] = sum_t env_a(t) env_b(t + k)
-        c = np.array(
-            [
-                np.dot(env_a[i, max(0, -k) : n - max(0, k)], env_b[i, max(0, k) : n - max(0, -k)])
-                for k in lags
-            ]
-        )
+        # c[k] = sum_t env_a(t) env_b(t + k), by FFT
+        c = correlate(env_b[i], env_a[i], mode="full", method="fft")[n - 1 - lag : n + lag]
         m = int(np.argmax(c))
         shift = 0.0
         if 0 < m < len(c) - 1:

@@ -9,11 +9,14 @@
 use crate::echo::term::LeafTerm;
 use crate::error::{Error, Result};
 use crate::lobe::candidates::Candidates;
+use crate::lobe::receivers_block::{emitter_lanes, heard_lanes, EmitterLanes, HeardLanes};
+use crate::lobe::CB;
 use crate::lobe::{classify_heard, emitter_side, Heard, HeardDecision, PlacedReceiver};
 use crate::physics::amplitude::bistatic_echo_amplitude;
-use crate::physics::bistatic::bisector_incidence;
+use crate::physics::bistatic::{bisector_incidence, delay_range};
 use crate::scene::Scene;
 use crate::sonar::{Sonar, TooClose};
+use multiversion::multiversion;
 use rayon::prelude::*;
 
 /// Candidates per parallel task of the pass.
@@ -57,47 +60,92 @@ fn first_near(a: Option<Near>, b: Near) -> Option<Near> {
     }
 }
 
-/// One task's share: per receiver its items, in candidate order; the first too-close leaf.
-struct Part<T> {
-    terms: Vec<Vec<T>>,
+/// One task's share: per receiver the stored indices and terms of its counting leaves, in
+/// candidate order; the first too-close leaf.
+struct Part {
+    ids: Vec<Vec<u32>>,
+    terms: Vec<Vec<LeafTerm>>,
     near: Option<Near>,
 }
 
-fn heard_chunk<T>(
+/// The exact test of the candidates at positions `span` for every receiver, [`CB`] at a time:
+/// the emitter's side once per block, each receiver's lanes, libm where a lane is near a
+/// boundary ([`classify_heard`]).
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn heard_chunk(
     scene: &Scene,
     sonar: &Sonar,
     pose: &crate::physics::pose::Pose,
     rxs: &[PlacedReceiver],
     cands: &Candidates,
     span: std::ops::Range<usize>,
-    make: &(impl Fn(u32, &Heard) -> T + Sync),
-) -> Part<T> {
+) -> Part {
+    let len = span.len();
     let mut part = Part {
-        terms: (0..rxs.len()).map(|_| Vec::new()).collect(),
+        ids: (0..rxs.len()).map(|_| Vec::with_capacity(len)).collect(),
+        terms: (0..rxs.len()).map(|_| Vec::with_capacity(len)).collect(),
         near: None,
     };
+    let sp = &sonar.params;
+    let (mut em, mut hl) = (EmitterLanes::default(), HeardLanes::default());
     let mut blocks = cands.blocks(span);
-    while let Some((block, _)) = blocks.next_block() {
-        for &i in block {
-            let center = scene.centers.get(i as usize);
-            let id = scene.ids[i as usize] as usize;
-            let tx = match emitter_side(sonar, pose, center) {
-                Ok(tx) => tx,
-                Err(r) => {
-                    part.near = first_near(part.near, (id, r, None));
+    while let Some((block, consecutive)) = blocks.next_block() {
+        let n = block.len();
+        emitter_lanes(scene, sonar, pose, block, consecutive, &mut em);
+        let mut tx_ok = [true; CB];
+        for (k, &i) in block.iter().enumerate() {
+            if !(em.r[k] >= sp.min_range) {
+                tx_ok[k] = false;
+                part.near = first_near(part.near, (scene.ids[i as usize] as usize, em.r[k], None));
+            }
+        }
+        for (j, rx) in rxs.iter().enumerate() {
+            heard_lanes(sonar, pose, rx, &em, n, &mut hl);
+            for (k, &i) in block.iter().enumerate() {
+                if !tx_ok[k] {
                     continue;
                 }
-            };
-            for (k, rx) in rxs.iter().enumerate() {
-                match classify_heard(sonar, pose, rx, center, &tx) {
-                    HeardDecision::In(h) => {
-                        part.terms[k].push(make(i, &h));
-                    }
-                    HeardDecision::TooClose(r) => {
-                        part.near = first_near(part.near, (id, r, Some(k)));
-                    }
-                    HeardDecision::Out => {}
+                if !(hl.r_rx[k] >= sp.min_range) {
+                    let id = scene.ids[i as usize] as usize;
+                    part.near = first_near(part.near, (id, hl.r_rx[k], Some(j)));
+                    continue;
                 }
+                let t = match hl.verdict[k] {
+                    0 => continue,
+                    1 => {
+                        let (r_tx, r_rx) = (em.r[k], hl.r_rx[k]);
+                        let at = i as usize;
+                        LeafTerm {
+                            amp: bistatic_echo_amplitude(
+                                sp.gain,
+                                hl.gain[k],
+                                r_tx,
+                                r_rx,
+                                sp.spreading,
+                            ),
+                            range: delay_range(r_tx, r_rx),
+                            beta: hl.beta[k],
+                            cos_beta: hl.cos_beta[k],
+                            sin_beta: hl.sin_beta[k],
+                            radius: scene.radii[at],
+                            radius_pow_b: scene.radius_pow_b[at],
+                            radius_pow_p: scene.radius_pow_p[at],
+                        }
+                    }
+                    _ => {
+                        // near the lobe's boundary: the libm decision
+                        let center = scene.centers.get(i as usize);
+                        let Ok(tx) = emitter_side(sonar, pose, center) else {
+                            continue;
+                        };
+                        match classify_heard(sonar, pose, rx, center, &tx) {
+                            HeardDecision::In(h) => heard_leaf_term(sonar, scene, i, &h),
+                            _ => continue,
+                        }
+                    }
+                };
+                part.ids[j].push(i);
+                part.terms[j].push(t);
             }
         }
     }
@@ -117,8 +165,7 @@ pub fn heard_terms(
     rxs: &[PlacedReceiver],
     cands: &Candidates,
 ) -> Result<Vec<Vec<LeafTerm>>> {
-    let make = |i: u32, h: &Heard| heard_leaf_term(sonar, scene, i, h);
-    heard_pass(scene, sonar, pose, pose_index, rxs, cands, &make)
+    Ok(heard_pass(scene, sonar, pose, pose_index, rxs, cands)?.1)
 }
 
 /// The counting leaves (stored indices, ascending) of one pose for each receiver of `rxs`;
@@ -131,37 +178,30 @@ pub fn heard_members(
     rxs: &[PlacedReceiver],
     cands: &Candidates,
 ) -> Result<Vec<Vec<u32>>> {
-    let mut out = heard_pass(
-        scene,
-        sonar,
-        pose,
-        pose_index,
-        rxs,
-        cands,
-        &|i, _: &Heard| i,
-    )?;
+    let mut out = heard_pass(scene, sonar, pose, pose_index, rxs, cands)?.0;
     for ids in &mut out {
         ids.sort_unstable();
     }
     Ok(out)
 }
 
-/// [`heard_terms`] with `make` turning each counting (leaf, receiver) into an item.
-fn heard_pass<T: Send>(
+/// Per receiver, the counting leaves' stored indices and terms.
+type Heard2 = (Vec<Vec<u32>>, Vec<Vec<LeafTerm>>);
+
+fn heard_pass(
     scene: &Scene,
     sonar: &Sonar,
     pose: &crate::physics::pose::Pose,
     pose_index: usize,
     rxs: &[PlacedReceiver],
     cands: &Candidates,
-    make: &(impl Fn(u32, &Heard) -> T + Sync),
-) -> Result<Vec<Vec<T>>> {
+) -> Result<Heard2> {
     let n = cands.len();
-    let parts: Vec<Part<T>> = (0..n.div_ceil(HEARD_CHUNK))
+    let parts: Vec<Part> = (0..n.div_ceil(HEARD_CHUNK))
         .into_par_iter()
         .map(|c| {
             let span = c * HEARD_CHUNK..n.min((c + 1) * HEARD_CHUNK);
-            heard_chunk(scene, sonar, pose, rxs, cands, span, make)
+            heard_chunk(scene, sonar, pose, rxs, cands, span)
         })
         .collect();
     if sonar.params.too_close == TooClose::Error {
@@ -185,13 +225,18 @@ fn heard_pass<T: Send>(
             });
         }
     }
-    let mut out: Vec<Vec<T>> = (0..rxs.len())
-        .map(|k| Vec::with_capacity(parts.iter().map(|p| p.terms[k].len()).sum()))
+    let total = |k: usize| parts.iter().map(|p| p.ids[k].len()).sum::<usize>();
+    let mut ids: Vec<Vec<u32>> = (0..rxs.len())
+        .map(|k| Vec::with_capacity(total(k)))
+        .collect();
+    let mut terms: Vec<Vec<LeafTerm>> = (0..rxs.len())
+        .map(|k| Vec::with_capacity(total(k)))
         .collect();
     for part in parts {
-        for (o, t) in out.iter_mut().zip(part.terms) {
-            o.extend(t);
+        for (k, (i, t)) in part.ids.into_iter().zip(part.terms).enumerate() {
+            ids[k].extend(i);
+            terms[k].extend(t);
         }
     }
-    Ok(out)
+    Ok((ids, terms))
 }

@@ -9,6 +9,7 @@ pub mod bound;
 pub mod candidates;
 pub mod members;
 pub mod receivers;
+pub(crate) mod receivers_block;
 pub mod receivers_bound;
 pub mod rule;
 pub mod walk;

@@ -213,3 +213,51 @@ fn a_receiver_at_the_emitter_counts_the_monostatic_members() {
         .collect();
     assert_eq!(got[0], want);
 }
+
+/// The lanes' verdicts agree with libm's wherever they decide, and their gains, ranges and
+/// incidences are within a few ulps of the scalar test's.
+#[test]
+fn heard_blocks_match_the_libm_test_to_a_few_ulps() {
+    use crate::lobe::block::CB;
+    use crate::lobe::receivers_block::{emitter_lanes, heard_lanes, EmitterLanes, HeardLanes};
+    use crate::physics::bistatic::bisector_incidence;
+    let scene = leaves_around(4096, 21);
+    let pose = Pose::new([0.2, 0.1, -0.3], [1.0, 0.3, 0.2], [0.0, 0.0, 1.0]).unwrap();
+    let (mut decided, mut ins) = (0, 0);
+    for sonar in sonars() {
+        let rxs = place_receivers(&sonar, &pose);
+        let (mut em, mut hl) = (EmitterLanes::default(), HeardLanes::default());
+        for first in (0..scene.len() as u32).step_by(CB) {
+            let ids: Vec<u32> = (first..first + CB as u32).collect();
+            emitter_lanes(&scene, &sonar, &pose, &ids, true, &mut em);
+            for rx in &rxs {
+                heard_lanes(&sonar, &pose, rx, &em, CB, &mut hl);
+                for (k, &i) in ids.iter().enumerate() {
+                    let x = scene.centers.get(i as usize);
+                    let Ok(tx) = emitter_side(&sonar, &pose, x) else {
+                        continue;
+                    };
+                    assert_eq!(em.r[k], tx.range);
+                    let d = classify_heard(&sonar, &pose, rx, x, &tx);
+                    match (hl.verdict[k], d) {
+                        (2, _) => continue,
+                        (1, HeardDecision::In(h)) => {
+                            ins += 1;
+                            assert_eq!(hl.r_rx[k], h.rx.range);
+                            assert!((hl.gain[k] - h.gain).abs() <= 1e-13 * h.gain);
+                            let n = scene.normals.get(i as usize);
+                            let (b, c, s) = bisector_incidence(h.tx.dir, h.rx.dir, n);
+                            assert!((hl.beta[k] - b).abs() <= 1e-14, "{} {b}", hl.beta[k]);
+                            assert!((hl.cos_beta[k] - c).abs() <= 1e-15);
+                            assert!((hl.sin_beta[k] - s).abs() <= 1e-15);
+                        }
+                        (0, HeardDecision::Out | HeardDecision::TooClose(_)) => {}
+                        (v, d) => panic!("lane verdict {v} against {d:?}"),
+                    }
+                    decided += 1;
+                }
+            }
+        }
+    }
+    assert!(decided > 20_000 && ins > 2_000, "{decided} {ins}");
+}
