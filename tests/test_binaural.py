@@ -40,7 +40,7 @@ def test_a_single_leafs_interaural_time_difference_is_its_path_difference(az_deg
 
 
 def test_the_level_difference_follows_the_heading(sweep):
-    e, heading = sweep
+    e, _ = sweep
     ild = interaural_level_difference(e)
     # turned right (negative heading), the clump lies to the left: the left ear is louder
     assert np.all(np.diff(ild) < 0) and ild[0] > 3.0 and ild[-1] < -3.0

@@ -2,7 +2,9 @@
 
 Plain NumPy and SciPy, a brute-force lobe test (no BVH, no Rust). ``simulate`` and
 ``lobe_members`` have the same signatures and results as ``batecho.simulate`` and
-``batecho.lobe_members``; the property tests hold the Rust core to this module.
+``batecho.lobe_members``, receivers at their own places included (docs/model.md §5a:
+``_heard``, ``_bisector_incidence``, ``_simulate_heard``); the property tests hold the Rust
+core to this module.
 
 One deliberate detail: the lobe test is a threshold, and a leaf on its boundary is decided by
 the last bit of ``atan2`` and ``exp``. The Rust core calls the C library's ``atan2`` and

@@ -48,4 +48,6 @@ pub use tables::{BandTables, BinOfKp, NodeTables, ANCHOR_BINS, LANES, POLY_BLOCK
 pub use term::{leaf_amp, leaf_term, LeafTerm};
 
 #[cfg(test)]
+mod receivers_tests;
+#[cfg(test)]
 mod tests;

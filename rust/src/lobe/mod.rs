@@ -26,6 +26,4 @@ pub use rule::{classify, Decision, LeafView};
 pub use walk::{bvh_candidates, bvh_candidates_heard, candidates, candidates_heard};
 
 #[cfg(test)]
-mod receivers_tests;
-#[cfg(test)]
 mod tests;

@@ -6,7 +6,7 @@
 //!
 //! Mirrors [`crate::lobe::receivers::classify_heard`] (ranges, gains, the reach and the cone)
 //! and [`crate::physics::bistatic::bisector_incidence`]; held to them by
-//! `lobe::receivers_tests::heard_blocks_match_the_libm_test_to_a_few_ulps`.
+//! `echo::receivers_tests::heard_blocks_match_the_libm_test_to_a_few_ulps`.
 use crate::lobe::block::CB;
 use crate::lobe::receivers::PlacedReceiver;
 use crate::math::vmath::{atan2_fast, exp_nonpos};

@@ -1,5 +1,6 @@
-//! Tests of the receivers' lobe query: the exact test reduces to the monostatic one, the
-//! node test is conservative for receivers at offsets, and the BVH finds what brute force does.
+//! Tests of the receivers' lobe query and pass: the exact test reduces to the monostatic one,
+//! the node test is conservative for receivers at offsets, the lanes decide as libm, and the
+//! BVH finds what brute force does.
 use crate::echo::receivers::heard_members;
 use crate::lobe::bound::BoxTest;
 use crate::lobe::members::{members, Search};
