@@ -20,7 +20,7 @@ use multiversion::multiversion;
 use rayon::prelude::*;
 
 /// Candidates per parallel task of the pass.
-const HEARD_CHUNK: usize = 2048;
+const HEARD_CHUNK: usize = 512;
 
 /// The amplitude `g S_tx S_rx / (r_tx r_rx)` (or `g S_tx S_rx`) of a scatterer heard by a
 /// receiver, before the scatterer's own factor.
