@@ -41,7 +41,7 @@ def _savefig(fig, path: Path, dpi: int) -> Path:
     return path
 
 
-def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str):
+def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str, title: str):
     """A figure: the scene with one pose and its lobe (left), its impulse response (right)."""
     from ..outputs.plots import _plt, plot_impulse, plot_scene_3d
 
@@ -50,7 +50,7 @@ def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str):
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
     plot_scene_3d(forest, pose, sonar, members=members, ax=ax3, lobe_poses=[0], title=title3d)
     ax = fig.add_subplot(1, 2, 2)
-    plot_impulse(echoes, 0, ax=ax)
+    plot_impulse(echoes, 0, ax=ax, title=title)
     return fig
 
 
@@ -98,6 +98,7 @@ def paper_figures(
     straight run stops that far outside the crown.
     """
     from ..outputs.plots import (
+        _impulse_handles,
         _plt,
         plot_echo_image,
         plot_impulse,
@@ -149,6 +150,7 @@ def paper_figures(
         None,
         e5,
         f"Figure 5: no leaf in the main lobe ({bw10:g} deg beam)",
+        "its echo: exactly zero",
     )
     written["fig05"] = _savefig(fig, out / "fig05_no_leaf_in_lobe.png", dpi)
     data["fig05_position"] = empty.positions[0]
@@ -169,16 +171,25 @@ def paper_figures(
         members6,
         e6,
         f"Figure 6: {len(members6)} leaves in the main lobe ({bw20:g} deg beam)",
+        "its echo (Figure 7)",
     )
     written["fig06"] = _savefig(fig, out / "fig06_leaves_in_lobe.png", dpi)
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), constrained_layout=True, sharex=True)
     imp7 = []
-    for ax, bw in zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True):
+    for k, (ax, bw) in enumerate(zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True)):
         e = simulate(scene1, paper_sonar(bw), p6)
         imp7.append(e.impulse[0])
         plot_impulse(
-            e, 0, ax=ax, title=f"Figure 7: {bw:g} deg beam, {e.n_leaves[0]} leaves in the lobe"
+            e,
+            0,
+            ax=ax,
+            title=f"Figure 7: {bw:g} deg beam, {e.n_leaves[0]} leaves in the lobe",
+            legend=False,
+            range_axis=k == 0,
         )
+        if k < len(axes) - 1:
+            ax.set_xlabel("")
+    fig.legend(*_impulse_handles(axes[0]), loc="outside lower center", ncols=2, frameon=False)
     written["fig07"] = _savefig(fig, out / "fig07_impulse_beamwidths.png", dpi)
     data["fig06_position"] = p6.positions[0]
     data["fig06_forward"] = p6.forward[0]
@@ -214,6 +225,7 @@ def paper_figures(
         s20,
         members=m8,
         trajectory=np.vstack([grid.positions, grid.positions[:1]]),
+        lobe_labels=[f"lobe of point {i + 1} ({angles8[i]:g} deg)" for i in range(4)],
         title=f"Figure 8: two trees, circle of {R:g} m at {Z:g} m, 4 sample points "
         f"({bw20:g} deg beam)",
     )
@@ -238,15 +250,18 @@ def paper_figures(
     angles = 360.0 * np.arange(n_e) / n_e
     pe = circle(c2, R, Z, n_points=n_e, heading="center")
     fig, axes = plt.subplots(3, 1, figsize=(9, 9.5), constrained_layout=True, sharex=True)
-    for ax, bw in zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True):
+    for k, (ax, bw) in enumerate(zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True)):
         ee = simulate(scene2, paper_sonar(bw), pe)
         plot_echo_image(
             ee,
             ax=ax,
             x=angles,
             xlabel="angle on the circle (deg)",
-            title=f"Echoes around two trees, looking at the centre ({bw:g} deg beam)",
+            title=f"Echoes around two trees from a {R:g} m circle, looking at the centre "
+            f"({bw:g} deg beam)",
         )
+        if k < len(axes) - 1:
+            ax.set_xlabel("")
         data[f"echo_image_{bw:g}deg_n_leaves"] = ee.n_leaves
     written["echo_image"] = _savefig(fig, out / "echo_image_circle.png", dpi)
     data["echo_image_angles_deg"] = angles
