@@ -7,6 +7,9 @@ use std::sync::Arc;
 
 use crate::{rows3, to_py};
 
+/// Per point, the distance to the nearest leaf (m) and that leaf's index.
+type Clearance<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
+
 /// Leaves and their BVH (obvhs), built once.
 #[pyclass(name = "Scene", module = "batecho._core", frozen)]
 pub(crate) struct PyScene {
@@ -49,7 +52,7 @@ impl PyScene {
         &self,
         py: Python<'py>,
         points: PyReadonlyArray2<'py, f64>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    ) -> PyResult<Clearance<'py>> {
         let pts = rows3(&points, "points")?;
         let sc = self.inner.clone();
         let near = py.detach(move || sc.clearance(&pts)).map_err(to_py)?;
