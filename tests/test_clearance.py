@@ -136,6 +136,7 @@ def test_clearance_takes_one_point_and_leaves_the_callers_array_alone():
     ("points", "match"),
     [
         ([[0.0, 0.0, np.nan]], "finite"),
+        ([[1e300, 0.0, 0.0]], "point 0"),
         ([[0.0, 0.0]], r"shape"),
         ([["a", "b", "c"]], "real numbers"),
     ],

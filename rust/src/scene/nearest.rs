@@ -6,7 +6,7 @@
 use crate::error::{invalid, Result};
 use crate::math::vec3::{is_finite3, V3};
 use crate::physics::distance::{point_box_distance, point_disk_distance};
-use crate::scene::Scene;
+use crate::scene::{Scene, MAX_COORDINATE};
 use obvhs::bvh2::Bvh2;
 use rayon::prelude::*;
 
@@ -108,11 +108,13 @@ const SLACK: f64 = 1e-9;
 impl Scene {
     /// The nearest leaf disk to each point (distance in m, the caller's leaf index), points in
     /// parallel. Exactly the minimum of `physics::distance::point_disk_distance` over every
-    /// leaf (ties to the smallest index), for any number of threads. Points must be finite.
+    /// leaf (ties to the smallest index), for any number of threads. Points must be finite and
+    /// within [`MAX_COORDINATE`] of the origin (as leaves are).
     pub fn clearance(&self, points: &[V3]) -> Result<Vec<Nearest>> {
-        if let Some(i) = points.iter().position(|p| !is_finite3(*p)) {
+        let bad = |p: &V3| !is_finite3(*p) || p.iter().any(|x| x.abs() > MAX_COORDINATE);
+        if let Some(i) = points.iter().position(bad) {
             return invalid(format!(
-                "point {i} is not finite: {:?}; clearance needs finite points",
+                "point {i} is {:?}; clearance needs finite points within {MAX_COORDINATE:e} m",
                 points[i]
             ));
         }
@@ -208,5 +210,7 @@ mod tests {
         let (s, ..) = scene(10, 1);
         let e = s.clearance(&[[0.0; 3], [f64::NAN, 0.0, 0.0]]).unwrap_err();
         assert!(e.to_string().contains("point 1"), "{e}");
+        let e = s.clearance(&[[1e300, 0.0, 0.0]]).unwrap_err();
+        assert!(e.to_string().contains("point 0"), "{e}");
     }
 }
