@@ -22,6 +22,8 @@ class Poses:
     up : array_like, shape (p, 3) or (3,), default (0, 0, 1)
         Up hint, re-orthogonalised against ``forward``; must not be parallel to it.
 
+    Notes
+    -----
     Azimuth is positive toward ``left = up x forward`` and elevation positive toward ``up``.
     """
 

@@ -27,6 +27,8 @@ class Leaves:
     radii : array_like, shape (n,)
         Disk radii in metres, > 0.
 
+    Notes
+    -----
     The caller's arrays are never modified or kept: ``Leaves`` holds read-only float64 copies.
     """
 

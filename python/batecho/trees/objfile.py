@@ -326,7 +326,10 @@ def write_obj(
     comment : str, optional
         A comment line written at the top.
 
-    Returns the OBJ path.
+    Returns
+    -------
+    pathlib.Path
+        The OBJ path.
     """
     p = _as_path(path, "path")
     if p.suffix.lower() == ".mtl":
