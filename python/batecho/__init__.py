@@ -15,6 +15,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._core import __version__
+from ._resources import memory_limit, set_memory_limit
 from .echoes.simulate import Echoes, lobe_members, simulate
 from .flight.kinematic import circle, figure_eight, line_to
 from .flight.mount import SonarMount
@@ -121,6 +122,7 @@ __all__ = [
     "load_reference",
     "load_tree",
     "lobe_members",
+    "memory_limit",
     "look_at",
     "paper",
     "paper_intensity",
@@ -128,6 +130,7 @@ __all__ = [
     "run_scenefile",
     "sample_ipp",
     "scenefile",
+    "set_memory_limit",
     "simulate",
     "trajectories",
     "treeplots",

@@ -49,6 +49,28 @@ def vectors(x: Any, name: str, n: int | None = None, allow_single: bool = True) 
     return finite(arr, name)
 
 
+#: The shortest and longest direction vectors normalised (as the core's ``MIN_NORM`` and
+#: ``MAX_NORM``): within them ``|v|^2`` is a normal float64 with room to spare, so ``v / |v|``
+#: is a unit vector to a few ulp. Shorter or longer ones are refused where they enter.
+MIN_NORM = 1e-150
+MAX_NORM = 1e150
+
+
+def unit_rows(v: np.ndarray, name: str, what: str = "row") -> np.ndarray:
+    """``v / |v|`` row by row (``|v|`` summed as the core does); ValueError naming the first
+    row whose length is outside [:data:`MIN_NORM`, :data:`MAX_NORM`] (zero included)."""
+    length = np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+    bad = ~((length >= MIN_NORM) & (length <= MAX_NORM))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"{what} {i}: {name} {v[i]} has length {np.linalg.norm(v[i]):.3g}, outside "
+            f"[{MIN_NORM:g}, {MAX_NORM:g}]: zero, or too short or long to normalise in float64 "
+            "without losing precision; give a direction of ordinary length"
+        )
+    return v / length[:, None]
+
+
 def point3(x: Any, name: str) -> np.ndarray:
     """A new finite (3,) float64 vector from anything with three entries."""
     try:

@@ -12,10 +12,14 @@ from .._validate import finite_scalar, positive_scalar
 
 __all__ = [
     "HALF_POWER_AMPLITUDE",
+    "MIN_SIGMA_RAD",
     "Beam",
     "horseshoe_bat_beamwidth_deg",
     "sigma_from_beamwidth_deg",
 ]
+
+#: The narrowest Gaussian width sigma (rad) of a beam, as the core's ``MIN_SIGMA``.
+MIN_SIGMA_RAD = 1e-8
 
 #: The one-way pattern is at -3 dB (amplitude 0.7079) at half the beamwidth.
 HALF_POWER_AMPLITUDE = 0.7079
@@ -62,6 +66,13 @@ class Beam:
                 raise ValueError(
                     f"sigma_deg must be one or two finite values > 0, got {self.sigma_deg}"
                 )
+        narrow = min(self.sigmas_rad)
+        if narrow < MIN_SIGMA_RAD:
+            given = "beamwidth_deg" if self.beamwidth_deg is not None else "sigma_deg"
+            raise ValueError(
+                f"{given} = {getattr(self, given)!r} gives a Gaussian width of {narrow:.3g} rad, "
+                f"below the narrowest beam, {MIN_SIGMA_RAD:g} rad (its exponent overflows)"
+            )
         finite_scalar(self.rotation_deg, "rotation_deg")
         az0, el0 = (finite_scalar(v, "center_deg") for v in self.center_deg)
         if abs(az0) > 180 or abs(el0) > 90:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from .._validate import finite_scalar, positive_scalar
+from .._validate import finite_scalar, integer, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
 
@@ -26,6 +26,9 @@ _WINDOWS = ("hann", "rect")
 # Record lengths whose resolved sonars an n_samples="auto" sonar keeps (the records a flight
 # needs vary little: each is a 2-3-5-smooth length).
 _RESOLVED_KEPT = 16
+
+#: The longest record (samples) a sonar may have, as the core's limit.
+MAX_N_SAMPLES = 2**31
 
 #: Beamwidth used when neither ``beamwidth_deg`` nor ``beam`` is given (Ming's canonical 30 deg).
 DEFAULT_BEAMWIDTH_DEG = 30.0
@@ -110,10 +113,12 @@ class Sonar:
         auto = isinstance(self.n_samples, str)
         if auto and self.n_samples != "auto":
             raise ValueError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
-        if not auto and (
-            isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer))
-        ):
-            raise TypeError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
+        if not auto:
+            n = integer(self.n_samples, "n_samples", minimum=2, wrong_type=TypeError)
+            if n > MAX_N_SAMPLES:
+                raise ValueError(
+                    f"n_samples must be at most 2^31 = {MAX_N_SAMPLES}, got {self.n_samples!r}"
+                )
         positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
         if len(tuple(self.band_hz)) != 2:
             raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
@@ -201,8 +206,17 @@ class Sonar:
 
     def record_length_for(self, range_m: float) -> int:
         """The record (samples, a 2-3-5-smooth even number) that holds echoes out to
-        ``range_m`` plus ``record_tail_s``."""
+        ``range_m`` plus ``record_tail_s``; ValueError when that is longer than
+        :data:`MAX_N_SAMPLES`."""
         need = self.fs * (2.0 * float(range_m) / self.sound_speed + self.record_tail_s)
+        if not need <= MAX_N_SAMPLES:
+            raise ValueError(
+                f"n_samples='auto' needs a record of {need:.3g} samples to hold echoes out to "
+                f"{float(range_m):.4g} m (fs = {self.fs:g} Hz, sound_speed = "
+                f"{self.sound_speed:g} m/s, record_tail_s = {self.record_tail_s:g} s), more than "
+                f"the longest record, 2^31 samples; bound the reach with max_range_m (or a "
+                "higher threshold_db), shorten record_tail_s, or give n_samples"
+            )
         return _fft_size(max(256, math.ceil(need)))
 
     def _provisional_n(self) -> int:
@@ -283,15 +297,22 @@ class Sonar:
 
 
 def _fft_size(n: int) -> int:
-    """The smallest even 2-3-5-smooth integer >= n (fast FFT lengths)."""
-    while True:
-        m = n
-        for p in (2, 3, 5):
-            while m % p == 0:
-                m //= p
-        if m == 1 and n % 2 == 0:
-            return n
-        n += 1
+    """The smallest even 2-3-5-smooth integer >= n (fast FFT lengths): the least
+    ``2^a 3^b 5^c >= n`` with ``a >= 1``, found over the powers of 5 and 3 (a few hundred
+    steps for any n that fits in memory)."""
+    n = max(int(n), 2)
+    best = 2 ** max(1, (n - 1).bit_length())
+    p5 = 1
+    while p5 < 2 * n:
+        p35 = p5
+        while p35 < 2 * n:
+            m = 2 * p35  # a >= 1
+            while m < n:
+                m *= 2
+            best = min(best, m)
+            p35 *= 3
+        p5 *= 5
+    return best
 
 
-__all__ = ["DEFAULT_BEAMWIDTH_DEG", "Sonar"]
+__all__ = ["DEFAULT_BEAMWIDTH_DEG", "MAX_N_SAMPLES", "Sonar"]

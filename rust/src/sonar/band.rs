@@ -1,6 +1,7 @@
 //! A validated sonar ([`Sonar`]): its parameters checked, and the quantities derived from them
 //! once (band bins, frequencies, wavenumbers, window, absorption per bin, detection constant,
 //! range limit).
+use crate::budget;
 use crate::error::{invalid, Result};
 use crate::physics::amplitude::detection_constant;
 use crate::physics::beam::GaussianBeam;
@@ -120,6 +121,17 @@ impl Sonar {
         }
         let (k0, k1) = (k0 as usize, k1 as usize);
         let m = k1 - k0 + 1;
+        budget::check(
+            budget::sonar_bytes(m, n, rayon::current_num_threads()),
+            || {
+                format!(
+                    "a sonar with n_samples = {n}, fs = {} Hz and band_hz = ({}, {}) ({m} band \
+                     bins)",
+                    p.fs, p.f_lo, p.f_hi
+                )
+            },
+            "use a shorter record (n_samples), a lower fs or a narrower band",
+        )?;
         let freqs: Vec<f64> = (k0..=k1).map(|k| k as f64 * p.fs / n as f64).collect();
         let wavenumbers: Vec<f64> = freqs
             .iter()
