@@ -19,6 +19,23 @@ from ._validate import integer
 #: The default limit on what one call may allocate (bytes): 4 GiB, as the core's.
 DEFAULT_MEMORY_LIMIT_BYTES = 4 * 2**30
 
+#: Memory per leaf of a scene (bytes): its arrays here and in the core, and the BVH (as the
+#: core's ``budget::BYTES_PER_LEAF``).
+BYTES_PER_LEAF = 400.0
+
+
+#: What ``simulate`` returns per pose (bytes) per band bin and per record sample, as the
+#: core's ``budget::echoes_bytes``; and a pose's own arrays.
+ECHO_BYTES_PER_BIN = 48.0
+ECHO_BYTES_PER_SAMPLE = 16.0
+BYTES_PER_POSE = 128.0
+
+
+def echoes_bytes_per_pulse(n_bins: float, n_samples: float) -> float:
+    """Memory (bytes) one pulse's pose and echoes take: ``n_bins`` band bins, records of
+    ``n_samples``."""
+    return ECHO_BYTES_PER_BIN * n_bins + ECHO_BYTES_PER_SAMPLE * n_samples + BYTES_PER_POSE
+
 
 def memory_limit() -> int:
     """The limit in force (bytes) on what one call may allocate."""
@@ -55,8 +72,13 @@ def check_memory(nbytes: float, what: str, pieces: str) -> None:
 
 
 __all__ = [
+    "BYTES_PER_LEAF",
+    "BYTES_PER_POSE",
     "DEFAULT_MEMORY_LIMIT_BYTES",
+    "ECHO_BYTES_PER_BIN",
+    "ECHO_BYTES_PER_SAMPLE",
     "check_memory",
+    "echoes_bytes_per_pulse",
     "human_bytes",
     "memory_limit",
     "set_memory_limit",

@@ -72,6 +72,9 @@ pub fn sonar_bytes(m: usize, n: usize, threads: usize) -> f64 {
         + threads as f64 * (m as f64 * THREAD_BYTES_PER_BIN + n as f64 * THREAD_BYTES_PER_SAMPLE)
 }
 
+/// Memory per leaf of a scene (bytes): the arrays, their copies in BVH order, the BVH.
+pub const BYTES_PER_LEAF: f64 = 400.0;
+
 /// What `simulate` returns for `p` poses (bytes): each pose's spectrum (`m` complex bins) and
 /// impulse (`n` samples, when asked for), held per pose, gathered, and handed to the caller.
 pub fn echoes_bytes(p: usize, m: usize, n: usize, impulse: bool) -> f64 {

@@ -36,11 +36,16 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import check_memory
 from .._validate import finite, positive_scalar, readonly, real_array, vectors
 from ._so3 import E3, cross3, hat, orthonormalise, triple
 from .controller import SE3Gains, desired_attitude, flat_reference, se3_control
 from .record import Flight
 from .trajectories import Trajectory
+
+#: Memory per recorded step of a flight (bytes): the state, the reference, the commands, the
+#: wind and the integrator's temporaries.
+BYTES_PER_STEP = 1000.0
 
 __all__ = ["GRAVITY", "Gusts", "QuadState", "Quadrotor"]
 
@@ -356,7 +361,13 @@ class Quadrotor:
             )
         if method not in ("rk4", "scipy"):
             raise ValueError(f"method must be 'rk4' or 'scipy', got {method!r}")
-        n = math.ceil(T / h - 1e-9)
+        steps = T / h
+        check_memory(
+            steps * BYTES_PER_STEP,
+            f"a flight of duration {T:g} s at dt = {h:g} s ({steps:.3g} steps)",
+            "use a larger dt, or fly a shorter duration in parts (initial_state=)",
+        )
+        n = math.ceil(steps - 1e-9)
         times = np.minimum(np.arange(n + 1) * h, T)
         state = self.initial_state(trajectory) if initial_state is None else initial_state
         if not isinstance(state, QuadState):

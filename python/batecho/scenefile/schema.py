@@ -45,6 +45,9 @@ from ..forest.models import TREE_MODELS
 
 __all__ = ["PLOTS", "SCENE_KEYS_BY_KIND", "ScenefileError", "check_document"]
 
+#: The highest resolution of the plots (dots per inch).
+MAX_DPI = 2400
+
 #: The plots a scene file may ask for in ``[output] plots``.
 PLOTS = ("scene", "impulses", "echo_image", "spectrogram", "spectrum")
 
@@ -430,4 +433,10 @@ def check_document(doc: dict) -> dict[str, Any]:
     for key in ("sample_points", "dpi", "max_scene_points"):
         if cfg["output"][key] < 1:
             raise ScenefileError(f"[output] {key}: must be >= 1, got {cfg['output'][key]}")
+    if cfg["output"]["dpi"] > MAX_DPI:
+        raise ScenefileError(
+            f"[output] dpi: at most {MAX_DPI} (print quality is 300-600), got {cfg['output']['dpi']}"
+        )
+    if not 0 <= cfg["seed"] < 2**128:
+        raise ScenefileError(f"seed: must be an integer in [0, 2^128), got {cfg['seed']}")
     return cfg

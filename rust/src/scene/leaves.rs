@@ -1,5 +1,6 @@
 //! Leaves as disks (centre, unit normal, radius), validated and stored in the BVH's
 //! depth-first order, with the BVH built once and reused for every pose.
+use crate::budget;
 use crate::error::{invalid, Result};
 use crate::math::vec3::{dot, MAX_NORM, MIN_NORM, V3};
 use crate::physics::leaf::{PAPER_BP, PAPER_PP};
@@ -122,6 +123,11 @@ pub fn validate_leaves(centers: &[V3], normals: &[V3], radii: &[f64]) -> Result<
 impl Scene {
     /// Build a scene. Normals must already be unit vectors (see [`normalized`]).
     pub fn new(centers: Vec<V3>, normals: Vec<V3>, radii: Vec<f64>) -> Result<Scene> {
+        budget::check(
+            centers.len() as f64 * budget::BYTES_PER_LEAF,
+            || format!("a scene of {} leaves", centers.len()),
+            "split the leaves into several scenes",
+        )?;
         validate_leaves(&centers, &normals, &radii)?;
         let start = Instant::now();
         let boxes: Vec<Aabb> = centers
