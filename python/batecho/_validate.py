@@ -24,11 +24,10 @@ def finite(arr: np.ndarray, name: str) -> np.ndarray:
     """``arr`` itself; ValueError naming the first entry that is NaN or infinite."""
     bad = ~np.isfinite(arr)
     if bad.any():
-        where = np.argwhere(bad)[0]
-        idx = where[0] if arr.ndim > 0 else ()
+        where = tuple(int(k) for k in np.argwhere(bad)[0])
         raise ValueError(
-            f"{name} must be finite; entry {tuple(where)} is {arr[tuple(where)]}"
-            + (f" (row {idx})" if arr.ndim > 1 else "")
+            f"{name} must be finite; entry {where} is {arr[where]}"
+            + (f" (row {where[0]})" if arr.ndim > 1 else "")
         )
     return arr
 

@@ -125,8 +125,15 @@ def start(argv: list[str]) -> subprocess.Popen:
 REF = Path()
 
 
-def kill_campaign(rng: random.Random, work: Path, spec: Path, n_samples: int, kills: int,
-                  full_s: float, failures: list[str]) -> tuple[int, int, int]:
+def kill_campaign(
+    rng: random.Random,
+    work: Path,
+    spec: Path,
+    n_samples: int,
+    kills: int,
+    full_s: float,
+    failures: list[str],
+) -> tuple[int, int, int]:
     """Kill generate at random times, resume each store to the end, compare with the
     reference. Returns (kills survived, samples lost or doubled, orphans)."""
     survived = lost = orphans = 0
@@ -166,8 +173,9 @@ def kill_campaign(rng: random.Random, work: Path, spec: Path, n_samples: int, ki
     return survived, lost, orphans
 
 
-def race_campaign(rng: random.Random, work: Path, spec: Path, n_samples: int, races: int,
-                  failures: list[str]) -> int:
+def race_campaign(
+    rng: random.Random, work: Path, spec: Path, n_samples: int, races: int, failures: list[str]
+) -> int:
     """Two generate runs on one new store, started 0.05-0.3 s apart; then the store must
     finish (a third run) and equal the reference. Returns the number of broken stores."""
     broken = 0
@@ -207,8 +215,9 @@ def corrupt(rng: random.Random, store: Path) -> str:
     return f"deleted {rel}"
 
 
-def corruption_campaign(rng: random.Random, work: Path, cases: int,
-                        failures: list[str]) -> tuple[int, int]:
+def corruption_campaign(
+    rng: random.Random, work: Path, cases: int, failures: list[str]
+) -> tuple[int, int]:
     """Corrupt copies of the reference store; verify must refuse each (or the damage must
     leave the data intact) with a one-line message. Returns (cases, missed)."""
     missed = 0
@@ -261,9 +270,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     kills = args.kills if args.kills is not None else (200 if args.long else 6)
     races = args.races if args.races is not None else (30 if args.long else 2)
-    corruptions = args.corruptions if args.corruptions is not None else (
-        500 if args.long else 30
-    )
+    corruptions = args.corruptions if args.corruptions is not None else (500 if args.long else 30)
     rng = random.Random(args.seed)
     failures: list[str] = []
     t0 = time.perf_counter()

@@ -105,14 +105,75 @@ def run_argv(
     return Outcome(kind, rc, out, err)
 
 
+def run_campaign(
+    script: Path,
+    label: str,
+    n_cases: int,
+    batch_size: int,
+    timeout_s: float,
+    seed: int,
+    memory_bytes: int = DEFAULT_MEMORY_BYTES,
+    budget_s: float | None = None,
+    options: dict | None = None,
+) -> int:
+    """Run cases ``0 .. n_cases-1`` of ``script`` (each derived in the child from ``seed``
+    and its index) in batches of children; stop early after ``budget_s`` seconds. A record
+    whose result starts with ``"BUG"`` is a failure, and so is a child that crashes, aborts
+    or hangs (the case it was on is named). Prints the counts; returns the exit status."""
+    import collections
+    import time
+
+    t0 = time.perf_counter()
+    counts: collections.Counter[str] = collections.Counter()
+    failures: list[str] = []
+    i = 0
+    while i < n_cases and (budget_s is None or time.perf_counter() - t0 < budget_s):
+        cases = list(range(i, min(n_cases, i + batch_size)))
+        payload = {"seed": seed, "cases": cases, **(options or {})}
+        done, oc = run_batch(script, payload, timeout_s, memory_bytes)
+        for rec in done:
+            r = str(rec.get("r", "?"))
+            counts[r.split(":", 1)[0] if r.startswith("BUG") else r] += 1
+            if r.startswith("BUG"):
+                failures.append(f"case {rec.get('i')}: {r}")
+        if len(done) == len(cases) and oc.kind == "ok":
+            i += len(cases)
+            continue
+        culprit = cases[len(done)] if len(done) < len(cases) else cases[-1]
+        counts[oc.kind] += 1
+        failures.append(
+            f"case {culprit}: the child ended with {oc.kind} (status {oc.returncode}): "
+            f"{oc.last_line[:300]}"
+        )
+        i = culprit + 1
+    elapsed = time.perf_counter() - t0
+    total = sum(v for k, v in counts.items() if k not in ("crash", "hang", "exit", "error"))
+    for f in failures[:30]:
+        print(f"FAIL {label} (seed {seed}) {f}")
+    if failures:
+        print(f"  reproduce one case: python {script} --seed {seed} --case N --show")
+    shown = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+    print(f"{label}: {total} inputs in {elapsed:.0f} s ({shown}); {len(failures)} failures")
+    return 1 if failures else 0
+
+
+def child_main(run_case, argv: list[str] | None = None) -> None:
+    """The child side of a batch: read the payload (JSON on stdin), run each case through
+    ``run_case(seed, i, payload) -> str`` and print one JSON line per finished case."""
+    payload = json.loads(sys.stdin.read())
+    for i in payload["cases"]:
+        r = run_case(payload["seed"], i, payload)
+        print(json.dumps({"i": i, "r": r}), flush=True)
+
+
 def run_batch(
     script: Path,
-    cases: list,
+    cases: dict,
     timeout_s: float,
     memory_bytes: int = DEFAULT_MEMORY_BYTES,
 ) -> tuple[list[dict], Outcome]:
-    """Run ``script`` as a child that reads a JSON list of cases on stdin and prints one JSON
-    line per case it finished. Returns the finished cases' records and the child's outcome;
+    """Run ``script`` as a child that reads a JSON payload of cases on stdin and prints one
+    JSON line per case it finished. Returns the finished cases' records and the child's outcome;
     when the child dies or hangs, the case after the last finished one is the culprit."""
     oc = run_argv(
         [sys.executable, str(script), "--child"],

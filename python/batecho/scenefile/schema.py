@@ -247,7 +247,7 @@ def _is_num(v: Any) -> bool:
 
 
 def _fail(where: str, key: str, msg: str) -> ScenefileError:
-    return ScenefileError(f"[{where}] {key}: {msg}")
+    return ScenefileError(f"[{where}] {key}: {msg}" if where else f"{key}: {msg}")
 
 
 def _nums(v: Any, n: int | None, where: str, key: str, what: str) -> list[float]:
@@ -435,7 +435,8 @@ def check_document(doc: dict) -> dict[str, Any]:
             raise ScenefileError(f"[output] {key}: must be >= 1, got {cfg['output'][key]}")
     if cfg["output"]["dpi"] > MAX_DPI:
         raise ScenefileError(
-            f"[output] dpi: at most {MAX_DPI} (print quality is 300-600), got {cfg['output']['dpi']}"
+            f"[output] dpi: at most {MAX_DPI} (print quality is 300-600), "
+            f"got {cfg['output']['dpi']}"
         )
     if not 0 <= cfg["seed"] < 2**128:
         raise ScenefileError(f"seed: must be an integer in [0, 2^128), got {cfg['seed']}")

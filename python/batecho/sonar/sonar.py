@@ -27,6 +27,9 @@ _WINDOWS = ("hann", "rect")
 # needs vary little: each is a 2-3-5-smooth length).
 _RESOLVED_KEPT = 16
 
+#: The largest |threshold_db| (dB): 10^(T/20) stays far inside float64.
+MAX_ABS_THRESHOLD_DB = 300.0
+
 #: The longest record (samples) a sonar may have, as the core's limit.
 MAX_N_SAMPLES = 2**31
 
@@ -120,9 +123,27 @@ class Sonar:
                     f"n_samples must be at most 2^31 = {MAX_N_SAMPLES}, got {self.n_samples!r}"
                 )
         positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
-        if len(tuple(self.band_hz)) != 2:
+        try:
+            band = tuple(self.band_hz)
+        except TypeError:
+            raise TypeError(f"band_hz must be (f_lo, f_hi) in Hz, got {self.band_hz!r}") from None
+        if len(band) != 2:
             raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
-        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in self.band_hz)
+        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in band)
+        num = {
+            name: positive_scalar(getattr(self, name), name)
+            for name in ("sound_speed", "r0_m", "p0_pa", "p_ref_pa", "gain", "min_range_m")
+        }
+        num["threshold_db"] = finite_scalar(self.threshold_db, "threshold_db")
+        if abs(num["threshold_db"]) > MAX_ABS_THRESHOLD_DB:
+            raise ValueError(
+                f"threshold_db must be in [-{MAX_ABS_THRESHOLD_DB:g}, {MAX_ABS_THRESHOLD_DB:g}] "
+                f"dB, got {self.threshold_db!r}"
+            )
+        num["min_ka"] = positive_scalar(self.min_ka, "min_ka", allow_zero=True)
+        max_range = (
+            None if self.max_range_m is None else positive_scalar(self.max_range_m, "max_range_m")
+        )
         fs = positive_scalar(self.fs, "fs")
         if f_hi > fs / 2:
             raise ValueError(
@@ -144,25 +165,25 @@ class Sonar:
             beam._core_tuple(),
             None if self.receiver is None else self.receiver._core_tuple(),
             self.lobe,
-            float(self.threshold_db),
-            float(self.r0_m),
-            float(self.p0_pa),
-            float(self.p_ref_pa),
+            num["threshold_db"],
+            num["r0_m"],
+            num["p0_pa"],
+            num["p_ref_pa"],
             cone,
-            None if self.max_range_m is None else float(self.max_range_m),
+            max_range,
             fs,
             self._provisional_n() if auto else int(self.n_samples),
             f_lo,
             f_hi,
-            float(self.sound_speed),
+            num["sound_speed"],
             self.leaf_model,
             bool(self.spreading),
-            float(self.gain),
+            num["gain"],
             self.window,
             atm,
-            float(self.min_range_m),
+            num["min_range_m"],
             self.too_close,
-            float(self.min_ka),
+            num["min_ka"],
         )
         object.__setattr__(self, "_core", core)
         object.__setattr__(self, "_resolved", {})
