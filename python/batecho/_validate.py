@@ -58,12 +58,15 @@ MAX_NORM = 1e150
 def unit_rows(v: np.ndarray, name: str, what: str = "row") -> np.ndarray:
     """``v / |v|`` row by row (``|v|`` summed as the core does); ValueError naming the first
     row whose length is outside [:data:`MIN_NORM`, :data:`MAX_NORM`] (zero included)."""
-    length = np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+    with np.errstate(over="ignore", under="ignore"):
+        length = np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
     bad = ~((length >= MIN_NORM) & (length <= MAX_NORM))
     if bad.any():
         i = int(np.argmax(bad))
+        big = float(np.abs(v[i]).max())
+        true = big * float(np.linalg.norm(v[i] / big)) if big > 0 else 0.0
         raise ValueError(
-            f"{what} {i}: {name} {v[i]} has length {np.linalg.norm(v[i]):.3g}, outside "
+            f"{what} {i}: {name} {v[i]} has length {true:.3g}, outside "
             f"[{MIN_NORM:g}, {MAX_NORM:g}]: zero, or too short or long to normalise in float64 "
             "without losing precision; give a direction of ordinary length"
         )
