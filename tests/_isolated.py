@@ -10,9 +10,10 @@ import textwrap
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools" / "fuzz"))
+import harness
 from harness import Outcome, run_argv, run_code
 
-__all__ = ["Outcome", "call_in_child", "run_argv"]
+__all__ = ["Outcome", "call_in_child", "harness", "run_argv", "run_code"]
 
 _WRAP = """
 import json, time

@@ -268,9 +268,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--corruptions", type=int)
     ap.add_argument("--samples", type=int, default=24)
     args = ap.parse_args(argv)
-    kills = args.kills if args.kills is not None else (200 if args.long else 6)
-    races = args.races if args.races is not None else (30 if args.long else 2)
-    corruptions = args.corruptions if args.corruptions is not None else (500 if args.long else 30)
+    kills = args.kills if args.kills is not None else (200 if args.long else 3)
+    races = args.races if args.races is not None else (30 if args.long else 1)
+    corruptions = args.corruptions if args.corruptions is not None else (500 if args.long else 20)
     rng = random.Random(args.seed)
     failures: list[str] = []
     t0 = time.perf_counter()

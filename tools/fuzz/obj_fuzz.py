@@ -310,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"options: {opts}\n")
         sys.stdout.buffer.write(data)
         return 0
-    n = args.n or (1_000_000 if args.long else 6000)
+    n = args.n or (1_000_000 if args.long else 4000)
     return run_campaign(
         Path(__file__),
         "obj fuzz",
