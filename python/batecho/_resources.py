@@ -37,6 +37,15 @@ def echoes_bytes_per_pulse(n_bins: float, n_samples: float) -> float:
     return ECHO_BYTES_PER_BIN * n_bins + ECHO_BYTES_PER_SAMPLE * n_samples + BYTES_PER_POSE
 
 
+class SlowWarning(UserWarning):
+    """A call that will run for minutes: it says so before it starts, with its estimate and
+    how to make it shorter."""
+
+
+#: A call expected to run longer than this (s) warns with :class:`SlowWarning` first.
+SLOW_S = 60.0
+
+
 def memory_limit() -> int:
     """The limit in force (bytes) on what one call may allocate."""
     return int(_core.memory_limit())
@@ -77,6 +86,8 @@ __all__ = [
     "DEFAULT_MEMORY_LIMIT_BYTES",
     "ECHO_BYTES_PER_BIN",
     "ECHO_BYTES_PER_SAMPLE",
+    "SLOW_S",
+    "SlowWarning",
     "check_memory",
     "echoes_bytes_per_pulse",
     "human_bytes",
