@@ -428,8 +428,12 @@ def generate(
     address such as ``"tcp://10.0.0.1:8786"``) runs each chunk as a task on that Dask cluster;
     the workers must reach ``store`` (a shared file system, or an object-store URL).
 
-    A store that already holds this spec is resumed: complete chunks are skipped, the others
-    computed. A store made from another spec, or not by batecho, is refused.
+    A store that already holds this spec is resumed: complete chunks are re-checked against
+    their checksums and skipped (a damaged one is computed again), the others computed. A
+    store made from another spec, or not by batecho, is refused. A local store is locked
+    (``OUT.zarr.lock`` beside it) while this runs: a second ``generate`` on it raises
+    :class:`~batecho.dataset.guard.StoreLockedError`. Local workers end when this process
+    dies, however it dies.
     """
     spec = _as_spec(spec)
     if workers is not None and (
