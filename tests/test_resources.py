@@ -77,6 +77,15 @@ def test_an_automatic_record_too_long_to_make_is_refused_naming_its_cause(kwargs
     refused(f"Sonar(n_samples='auto', {kwargs})", "ValueError", named, "2^31")
 
 
+def test_a_huge_band_at_a_tiny_sound_speed_simulates_or_refuses_without_aborting():
+    r = call_in_child(
+        "simulate(LEAF, Sonar(fs=160e3, band_hz=(1e3, 80e3), lobe='cone',\n"
+        "    cone_half_angle_deg=179.9, sound_speed=1e-3), POSE)",
+        SETUP,
+    )
+    assert r["raised"] in (None, "ValueError", "MemoryError"), r
+
+
 def test_a_plan_for_a_huge_band_at_a_tiny_sound_speed_is_refused_not_aborted():
     refused(
         "s = Sonar(fs=160e3, band_hz=(1e3, 80e3), lobe='cone', cone_half_angle_deg=179.9,\n"

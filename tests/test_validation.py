@@ -14,6 +14,9 @@ from hypothesis import strategies as st
 from batecho import Atmosphere, Beam, Leaves, Poses, Scene, Sonar, simulate
 from batecho._validate import MAX_NORM, MIN_NORM
 
+#: A refused call must answer within this (s): the checks come before any work.
+PROMPT_S = 1.0
+
 POSE = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
 LEAF = Leaves([[2.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
 
@@ -26,6 +29,7 @@ def test_a_leaf_normal_too_short_or_long_to_normalise_is_refused_naming_leaf_and
     r = call_in_child(body)
     assert r["raised"] == "ValueError", r
     assert "leaf 1: normal" in r["message"] and f"{length:.3g}" in r["message"], r
+    assert r["elapsed_s"] < PROMPT_S, r
 
 
 @pytest.mark.parametrize("which", ["forward", "up"])
@@ -36,6 +40,7 @@ def test_a_pose_vector_too_short_or_long_is_refused_naming_pose_and_value(which,
     r = call_in_child(f"batecho.Poses([0.0, 0, 0], {vec['forward']}, {vec['up']})")
     assert r["raised"] == "ValueError", r
     assert f"pose 0: {which}" in r["message"] and f"{length:.3g}" in r["message"], r
+    assert r["elapsed_s"] < PROMPT_S, r
 
 
 lengths = st.floats(1e-300, 1e300).map(float) | st.sampled_from([MIN_NORM, MAX_NORM])
