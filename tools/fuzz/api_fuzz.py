@@ -185,8 +185,10 @@ def strategies():
         "beam": beam_params,
         "atm": atm_params,
         "method": st.sampled_from(["exact", "fast", "auto", "x"]),
+        "sonar_n": st.sampled_from([1000, 4000]),
         "tol": st.one_of(st.sampled_from([1e-12, 1e-6, 1e-3, 1e-14, 0.5]), weird),
-        "what": st.integers(0, 5),
+        "what": st.integers(0, 6),
+        "many": st.sampled_from([2, 100, 1_000, 100_000]),
     }
 
 
@@ -245,7 +247,7 @@ def one_example(data, s) -> str:
                 if [snapshot(a) for a in args] != before:
                     raise Bug("Leaves changed the caller's arrays")
                 sc = Scene(lv)  # what Leaves accepts the core accepts
-                e = batecho.simulate(sc, Sonar(too_close="skip", min_ka=0.0), pose0)
+                e = batecho.simulate(sc, Sonar(too_close="skip", min_ka=0.0, n_samples=4000), pose0)
                 finite_echoes(e)
             elif what == 1:  # Poses, then the core
                 p, f, u = (data.draw(s["arrays"]()) for _ in range(3))
@@ -254,7 +256,7 @@ def one_example(data, s) -> str:
                 ps = Poses(p, f, u)
                 if [snapshot(a) for a in args] != before:
                     raise Bug("Poses changed the caller's arrays")
-                e = batecho.simulate(leaves0, Sonar(too_close="skip"), ps)
+                e = batecho.simulate(leaves0, Sonar(too_close="skip", n_samples=4000), ps)
                 finite_echoes(e)
             elif what == 2:  # Sonar, then a simulation
                 kw = data.draw(s["sonar"])
@@ -272,21 +274,28 @@ def one_example(data, s) -> str:
                 g = b.gain(np.array([0.0, 0.1, -3.0]), np.array([0.0, 0.2, 1.5]))
                 if not np.isfinite(g).all():
                     raise Bug(f"Beam.gain is not finite: {g}")
-                e = batecho.simulate(leaves0, Sonar(beam=b, too_close="skip"), pose0)
+                so = Sonar(beam=b, too_close="skip", n_samples=4000)
+                e = batecho.simulate(leaves0, so, pose0)
                 finite_echoes(e)
             elif what == 4:  # Atmosphere, its absorption, and a sonar with it
                 a = Atmosphere(**data.draw(s["atm"]))
                 al = a.alpha_db_per_m(np.array([1e3, 7e4, 2e5]))
                 if not np.isfinite(al).all():
                     raise Bug(f"absorption is not finite: {al}")
-                e = batecho.simulate(leaves0, Sonar(absorption=a, too_close="skip"), pose0)
+                so = Sonar(absorption=a, too_close="skip", n_samples=4000)
+                e = batecho.simulate(leaves0, so, pose0)
                 finite_echoes(e)
-            else:  # many poses at once, lobe members
+            elif what == 6:  # many poses at once: simulated, or refused for memory
+                p = data.draw(s["many"])
+                ps = Poses(np.zeros((p, 3)), [1.0, 0.0, 0.0])
+                e = batecho.simulate(leaves0, Sonar(n_samples=data.draw(s["sonar_n"])), ps)
+                finite_echoes(e)
+            else:  # odd pose arrays, lobe members
                 k = data.draw(s["arrays"](rows=None))
                 args = [k]
                 before = [snapshot(k)]
                 ps = Poses(k, [1.0, 0.0, 0.0])
-                idx = batecho.lobe_members(leaves0, Sonar(too_close="skip"), ps[0])
+                idx = batecho.lobe_members(leaves0, Sonar(too_close="skip", n_samples=4000), ps[0])
                 if [snapshot(k)] != before:
                     raise Bug("Poses changed the caller's array")
                 if not (idx.dtype == np.int64 and (np.diff(idx) > 0).all()):
