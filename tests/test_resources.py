@@ -37,7 +37,7 @@ def test_an_oversized_record_is_a_memory_error_naming_n_samples_and_the_size():
         "Sonar(n_samples=1_000_000_000)",
         "MemoryError",
         "n_samples = 1000000000",
-        "GB",
+        "GiB",
         "set_memory_limit",
     )
 
@@ -139,6 +139,6 @@ def test_a_memory_limit_below_one_mebibyte_or_not_an_integer_is_refused(bad):
 
 
 def test_the_python_check_says_what_and_how_to_split_it():
-    with pytest.raises(MemoryError, match=r"the thing needs about 1\.0 TB.*in pieces"):
+    with pytest.raises(MemoryError, match=r"the thing needs about 931\.3 GiB.*in pieces"):
         check_memory(1e12, "the thing", "do it in pieces")
     check_memory(1e3, "a small thing", "")

@@ -61,8 +61,9 @@ def set_memory_limit(nbytes: Any) -> int:
 
 
 def human_bytes(nbytes: float) -> str:
-    """A size for people: ``"6.0 GB"``, ``"512.0 MB"`` (as the core writes it)."""
-    for name, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+    """A size for people, in binary units as the limit is set: ``"4.0 GiB"``, ``"512.0 MiB"``
+    (as the core writes it)."""
+    for name, scale in (("TiB", 2.0**40), ("GiB", 2.0**30), ("MiB", 2.0**20), ("KiB", 2.0**10)):
         if nbytes >= scale:
             return f"{nbytes / scale:.1f} {name}"
     return f"{nbytes:.0f} bytes"

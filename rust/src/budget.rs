@@ -28,9 +28,14 @@ pub fn set_limit_bytes(bytes: u64) -> Result<u64> {
     Ok(LIMIT.swap(bytes, Ordering::Relaxed))
 }
 
-/// A size in bytes for people: "6.0 GB", "512.0 MB", "12.3 kB".
+/// A size in bytes for people, in binary units as the limit is set: "4.0 GiB", "512.0 MiB".
 pub fn human(bytes: f64) -> String {
-    let units = [("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)];
+    let units = [
+        ("TiB", 1024f64.powi(4)),
+        ("GiB", 1024f64.powi(3)),
+        ("MiB", 1024f64.powi(2)),
+        ("KiB", 1024.0),
+    ];
     for (name, scale) in units {
         if bytes >= scale {
             return format!("{:.1} {name}", bytes / scale);
@@ -121,7 +126,7 @@ mod tests {
         let msg = e.to_string();
         assert!(matches!(e, Error::TooLarge(_)));
         assert!(
-            msg.contains("simulate with 9 poses") && msg.contains("10.0 TB"),
+            msg.contains("simulate with 9 poses") && msg.contains("9.1 TiB"),
             "{msg}"
         );
         assert!(

@@ -52,7 +52,7 @@ fn check_finite(pose: usize, re: &[f64], im: &[f64], y: &[f64], sonar: &Sonar) -
     let p = &sonar.params;
     invalid(format!(
         "the echoes of pose {pose} overflow f64 (inf or NaN): the amplitude g G / r^2 times the \
-         leaf factor is beyond 1.8e308 (gain = {}, beam amplitudes {} and {}, spreading {}); \
+         leaf factor is beyond 1.8e308 (gain = {:e}, beam amplitudes {:e} and {:e}, spreading {}); \
          lower the gain or the beam amplitude, or check the leaves' radii",
         p.gain,
         p.emitter.amplitude,
