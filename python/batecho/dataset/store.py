@@ -335,6 +335,43 @@ def _coordinate_problems(g: Any, spec: DatasetSpec) -> list[str]:
     return problems
 
 
+#: Compressors whose settings change how a chunk is stored, not what it holds: their
+#: configuration may differ between zarr versions and is not compared.
+_COMPRESSORS = ("zstd", "blosc", "gzip")
+
+
+def _comparable(meta: Any) -> Any:
+    """An array's metadata as compared by verify (JSON types; NaN fill values as text)."""
+    import json
+
+    d = json.loads(json.dumps(meta.to_dict(), default=str))
+    d["codecs"] = [
+        {"name": c.get("name")} if c.get("name") in _COMPRESSORS else c for c in d.get("codecs", [])
+    ]
+    return d
+
+
+def _metadata_problems(g: Any, spec: DatasetSpec) -> list[str]:
+    """Every array's metadata (attributes, dimension names, fill value, codecs) must be what
+    the spec lays out: built afresh in memory and compared."""
+    from zarr.storage import MemoryStore
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = _lay_out(MemoryStore(), spec, False)
+    problems = []
+    for name, want in expected.arrays():
+        try:
+            got = g[name]
+        except Exception:  # (missing or unreadable: the layout check names it)
+            continue
+        a, b = _comparable(got.metadata), _comparable(want.metadata)
+        if a != b:
+            keys = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+            problems.append(f"array {name!r} has altered metadata ({', '.join(keys)})")
+    return problems
+
+
 def _read_markers(g: Any, n_chunks: int) -> np.ndarray:
     """(n_chunks,) uint64 markers; an unreadable marker object reads as 0 (incomplete)."""
     arr = g[MARKER]
@@ -604,7 +641,7 @@ def verify(store: StoreLike, deep: bool = True) -> VerifyReport:
         raise DatasetError(f"{store} does not exist (no zarr store there)")
     spec = read_spec(store, g)
     problems = _layout_problems(g, spec)
-    problems = problems or _coordinate_problems(g, spec)
+    problems = problems or _metadata_problems(g, spec) + _coordinate_problems(g, spec)
     if problems:
         raise DatasetError(f"{store} is corrupt: " + "; ".join(problems[:8]))
     markers = _read_markers(g, spec.n_chunks)
