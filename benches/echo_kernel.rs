@@ -6,7 +6,8 @@
 //! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order;
 //! - a whole pulse (`simulate`) heard by one ear against two ears (and monostatic), exact and
 //!   fast (tol 1e-6), at 1e4 and 1e5 leaves in the lobe; and the part the ears share (the
-//!   lobe query and the pass that makes every ear's terms) alone.
+//!   lobe query and the pass that makes every ear's terms) alone;
+//! - the clearance (nearest leaf disk) of 1000 points in the 1e6-leaf canopy.
 
 use batecho::echo::{heard_terms, leaf_term, sum_terms, LeafTerm};
 use batecho::fast::pulse::fast_pulse;
@@ -274,12 +275,36 @@ fn bench_ears(c: &mut Criterion) {
     }
 }
 
+/// The clearance of 1000 points in the 1e6-leaf canopy of [`forest`] (BVH walk), beside
+/// the pulse it guards (`bench_lobe`'s lobe query is one part of a pulse).
+fn bench_clearance(c: &mut Criterion) {
+    let scene = forest(1_000_000);
+    let mut rng = Rng(3);
+    let points: Vec<[f64; 3]> = (0..1000)
+        .map(|_| {
+            [
+                rng.uniform(-50.0, 50.0),
+                rng.uniform(-50.0, 50.0),
+                rng.uniform(0.0, 14.0),
+            ]
+        })
+        .collect();
+    let mut g = c.benchmark_group("clearance_1e6");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.bench_function("bvh_1000_points", |b| {
+        b.iter(|| black_box(scene.clearance(&points).unwrap().len()))
+    });
+    g.finish();
+}
+
 criterion_group!(
     benches,
     bench_spectrum,
     bench_fast,
     bench_lobe,
     bench_pulse,
-    bench_ears
+    bench_ears,
+    bench_clearance
 );
 criterion_main!(benches);

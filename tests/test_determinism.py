@@ -1,4 +1,5 @@
-"""Results are bit-identical for any number of threads (the reduction order is fixed)."""
+"""Results are bit-identical for any number of threads (the reduction order is fixed): echoes
+and clearances."""
 
 from __future__ import annotations
 
@@ -45,6 +46,10 @@ SCRIPT = textwrap.dedent(
         out[f"ears-{method}-spec"] = e.spectrum
         out[f"ears-{method}-imp"] = e.impulse
         out[f"ears-{method}-n"] = e.n_leaves
+    points = np.column_stack([rng.uniform(0, 10, 5000), rng.uniform(-3, 3, 5000),
+                              rng.uniform(-3, 3, 5000)])
+    out["clearance"], out["clearance-index"] = batecho.Scene(big).clearance(
+        points, return_index=True)
     np.savez(sys.argv[1], **out)
     """
 )

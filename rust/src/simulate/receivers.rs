@@ -1,6 +1,7 @@
 //! Echoes for receivers at their own places (docs/model.md §5a): per pose, one lobe query for
 //! all receivers (the union of their lobes), one pass over the candidates that makes every
 //! receiver's terms, then each receiver's band spectrum and impulse response.
+use crate::budget;
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::receivers::heard_terms;
 use crate::echo::spectrum::sum_terms;
@@ -10,7 +11,7 @@ use crate::fast::{fast_sum_terms, FastPlan, FastSonar};
 use crate::lobe::{candidates_heard, place_receivers, Search};
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
-use crate::simulate::{cost_exact, cost_fast, Echoes, Method};
+use crate::simulate::{check_finite, cost_exact, cost_fast, Echoes, Method};
 use crate::sonar::Sonar;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -58,28 +59,37 @@ pub fn simulate_heard(
             let rxs = place_receivers(sonar, pose);
             let cands = candidates_heard(scene, sonar, pose, &rxs, search);
             let terms = heard_terms(scene, sonar, pose, i, &rxs, &cands)?;
-            Ok(terms
+            terms
                 .iter()
                 .map(|t| {
                     let (re, im) = receiver_spectrum(sonar, method, plan.as_deref(), t);
                     let mut y = Vec::new();
                     if with_impulse {
-                        y = vec![0.0; n];
+                        y = budget::filled(n, 0.0, "the impulse response")?;
                         impulse_from_band(n, sonar.k0, &re, &im, &mut y);
                     }
-                    (re, im, y, t.len() as u64)
+                    check_finite(i, &re, &im, &y, sonar)?;
+                    Ok((re, im, y, t.len() as u64))
                 })
-                .collect())
+                .collect::<Result<Heard>>()
         })
         .collect::<Result<Vec<_>>>()?;
-    let p = poses.len();
+    let what = "simulate's output";
+    let records = poses.len().saturating_mul(r);
     let mut out = Echoes {
         n_bins: m,
         n_receivers: r,
-        spectrum_re: Vec::with_capacity(p * r * m),
-        spectrum_im: Vec::with_capacity(p * r * m),
-        impulse: Vec::with_capacity(if with_impulse { p * r * n } else { 0 }),
-        n_leaves: Vec::with_capacity(p * r),
+        spectrum_re: budget::with_capacity(records.saturating_mul(m), what)?,
+        spectrum_im: budget::with_capacity(records.saturating_mul(m), what)?,
+        impulse: budget::with_capacity(
+            if with_impulse {
+                records.saturating_mul(n)
+            } else {
+                0
+            },
+            what,
+        )?,
+        n_leaves: budget::with_capacity(records, what)?,
     };
     for (re, im, y, c) in per_pose.into_iter().flatten() {
         out.spectrum_re.extend_from_slice(&re);
