@@ -277,3 +277,22 @@ def test_a_leaf_too_close_to_a_receiver_names_the_receiver():
         batecho.simulate(leaves, sonar, pose)
     skip = batecho.simulate(leaves, sonar.replace(too_close="skip"), pose)
     assert skip.n_leaves[0, 1] == 0
+
+
+def test_the_memory_guard_counts_every_receivers_records():
+    # Poses whose one-ear output fits in the limit with a third to spare: four ears do not.
+    leaves = Leaves([[2.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    one = Sonar(receivers=(Receiver(),))
+    four = one.replace(receivers=(Receiver(),) * 4)
+    e = batecho.simulate(leaves, one, Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]))
+    per_record = 48 * len(e.freqs) + 16 * e.impulse.shape[-1]  # as budget::echoes_bytes
+    limit = 2**26
+    n_poses = int(limit / per_record / 1.5)
+    poses = Poses(np.zeros((n_poses, 3)), [1.0, 0.0, 0.0])
+    before = batecho.set_memory_limit(limit)
+    try:
+        assert batecho.simulate(leaves, one, poses).spectrum.shape[:2] == (n_poses, 1)
+        with pytest.raises(MemoryError, match=f"{n_poses} poses for 4 receivers"):
+            batecho.simulate(leaves, four, poses)
+    finally:
+        batecho.set_memory_limit(before)

@@ -181,14 +181,20 @@ def _heard(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
     return out
 
 
+#: Below this ``|e_tx + e_rx| = 2 cos(gamma / 2)`` (a bistatic angle within about 1e-4 rad of
+#: 180 degrees) a leaf is forward scattering, at grazing incidence (docs/model.md §5a).
+FORWARD_SCATTER_B = 1e-4
+
+
 def _bisector_incidence(e_tx: np.ndarray, e_rx: np.ndarray, n: np.ndarray):
     """The incidence from the bisector b = (e_tx + e_rx) / |e_tx + e_rx| of the two directions:
-    an approximation for small bistatic angles, exact at zero. b = 0 (a leaf exactly between
-    emitter and receiver: forward scattering, no specular direction) is grazing incidence
+    an approximation for small bistatic angles, exact at zero. |b| below
+    ``FORWARD_SCATTER_B`` (a leaf on or next to the segment between emitter and receiver:
+    forward scattering, no specular direction, b decided by rounding) is grazing incidence
     (beta = pi/2, cos = 0, sin = 1)."""
     b = e_tx + e_rx
     nb = np.sqrt(b[:, 0] * b[:, 0] + b[:, 1] * b[:, 1] + b[:, 2] * b[:, 2])
-    zero = ~(nb > 0.0)
+    zero = ~(nb >= FORWARD_SCATTER_B)
     with np.errstate(invalid="ignore", divide="ignore"):
         beta, cos_b, sin_b = _incidence(b / nb[:, None], n)
     beta = np.where(zero, np.pi / 2, beta)

@@ -47,7 +47,13 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
 
 /// A pose's echoes must be finite: amplitudes beyond f64's range (an enormous gain, beam
 /// amplitude or leaf) are refused, never returned as inf or NaN.
-pub(crate) fn check_finite(pose: usize, re: &[f64], im: &[f64], y: &[f64], sonar: &Sonar) -> Result<()> {
+pub(crate) fn check_finite(
+    pose: usize,
+    re: &[f64],
+    im: &[f64],
+    y: &[f64],
+    sonar: &Sonar,
+) -> Result<()> {
     // (no early exit: the fold vectorises, and a pose's arrays are short)
     let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
     if finite(re) && finite(im) && finite(y) {
@@ -137,7 +143,9 @@ pub fn simulate(
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     // Each receiver has a pose's arrays of its own: the output is that many records per pose.
-    let records = poses.len().saturating_mul(sonar.params.receivers.len().max(1));
+    let records = poses
+        .len()
+        .saturating_mul(sonar.params.receivers.len().max(1));
     budget::check(
         budget::echoes_bytes(records, m, n, with_impulse),
         || {

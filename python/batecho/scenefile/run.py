@@ -78,7 +78,7 @@ def setup_scenefile(sf: SceneFile) -> SimulationSetup:
     plan = sf.build_flight(
         center,
         obj if pos is not None else None,
-        bytes_per_pulse=echoes_bytes_per_pulse(bins, n),
+        bytes_per_pulse=echoes_bytes_per_pulse(bins, n, sonar.n_receivers),
     )
     t3 = time.perf_counter()
     return SimulationSetup(

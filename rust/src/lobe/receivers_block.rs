@@ -11,6 +11,7 @@ use crate::lobe::block::CB;
 use crate::lobe::receivers::PlacedReceiver;
 use crate::math::vmath::{atan2_fast, exp_nonpos};
 use crate::physics::beam::GaussianBeam;
+use crate::physics::bistatic::FORWARD_SCATTER_B;
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::{LobeRule, Sonar};
@@ -137,7 +138,7 @@ pub(crate) fn heard_lanes(
     let (lo, hi) = ((1.0 - AMBIGUOUS).powi(2), (1.0 + AMBIGUOUS).powi(2));
     let detectable = matches!(sp.lobe, LobeRule::Detectable { .. });
     // The bisector's incidence (`bisector_incidence`): b = e_tx + e_rx, then `incidence` of
-    // b / |b|; b = 0 is grazing.
+    // b / |b|; |b| below FORWARD_SCATTER_B is grazing.
     for k in 0..CB {
         let b = [
             em.ex[k] + e_rx[0][k],
@@ -154,7 +155,7 @@ pub(crate) fn heard_lanes(
         let s = (cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]).sqrt();
         let c = bu[0] * em.nx[k] + bu[1] * em.ny[k] + bu[2] * em.nz[k];
         let bt = atan2_fast(s, c);
-        let grazing = !(nb > 0.0);
+        let grazing = !(nb >= FORWARD_SCATTER_B);
         out.beta[k] = if grazing { FRAC_PI_2 } else { bt.min(PI - bt) };
         out.cos_beta[k] = if grazing { 0.0 } else { c.abs().min(1.0) };
         out.sin_beta[k] = if grazing { 1.0 } else { s.min(1.0) };
