@@ -37,8 +37,7 @@ def echoes_bytes_per_pulse(n_bins: float, n_samples: float, n_receivers: int = 0
     emitter, one record)."""
     records = max(1, n_receivers)
     return (
-        records * (ECHO_BYTES_PER_BIN * n_bins + ECHO_BYTES_PER_SAMPLE * n_samples)
-        + BYTES_PER_POSE
+        records * (ECHO_BYTES_PER_BIN * n_bins + ECHO_BYTES_PER_SAMPLE * n_samples) + BYTES_PER_POSE
     )
 
 
