@@ -142,3 +142,17 @@ def test_the_two_ears_example_is_valid_and_builds():
     sf = SceneFile.from_path(Path(__file__).parents[1] / "examples" / "two_ears.toml")
     sonar = sf.build_sonar()
     assert sonar.n_receivers == 2 and sf.build_call(sonar.fs) is not None
+
+
+def test_the_two_ears_example_flies_clear_and_both_ears_hear_the_tree():
+    from pathlib import Path
+
+    from batecho.scenefile.run import check_clearance, setup_scenefile
+
+    sf = SceneFile.from_path(Path(__file__).parents[1] / "examples" / "two_ears.toml")
+    st = setup_scenefile(sf)
+    cl = check_clearance(st)  # raises for a pulse closer than min_clearance_m
+    assert cl.distance.min() >= sf.config["flight"]["min_clearance_m"]
+    e = batecho.simulate(st.scene, st.sonar, st.plan.poses, method="fast", tol=1e-6)
+    left, right = e.n_leaves.max(axis=0)
+    assert 0 < left < right  # the tree is on the right
