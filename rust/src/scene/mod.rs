@@ -1,7 +1,10 @@
-//! The scene: leaves as disks, the BVH over their centres, and OBJ loading.
+//! The scene: leaves as disks, the BVH over their centres, branches as cylinder segments, and
+//! OBJ loading.
 
+pub mod branches;
 pub mod bvh;
 pub mod leaves;
 pub mod obj;
 
+pub use branches::Branches;
 pub use leaves::{normalized, validate_leaves, Scene, Xyz, MAX_COORDINATE};

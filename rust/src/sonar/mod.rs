@@ -6,4 +6,4 @@ pub mod band;
 pub mod params;
 
 pub use band::{round_half_up, Sonar};
-pub use params::{LeafModel, LobeRule, SonarParams, TooClose, Window};
+pub use params::{LeafModel, LobeRule, Shading, SonarParams, TooClose, Window};
