@@ -36,11 +36,11 @@ pub mod spectrum;
 pub mod tables;
 pub mod term;
 
-pub(crate) use exact::cis_neg;
 pub use branch::{
     add_branch, branch_points, branch_term, sum_branch_terms, sum_branch_terms_unwindowed,
     BranchPoint, BranchTerm, PointForm,
 };
+pub(crate) use exact::cis_neg;
 pub use exact::{add_leaf, add_leaf_scalar, CHEB_TOL, SMOOTH_TOL};
 pub use prepared::Prepared;
 pub(crate) use regime::{

@@ -45,13 +45,13 @@ pub mod spread;
 pub mod subband;
 
 pub(crate) use batch::paper_batch;
+pub use branch::fast_branch_spectrum;
 pub(crate) use finish::{finish_grids, Direct};
 pub(crate) use kinks::{paper_route, PaperRoute};
 pub(crate) use lanes::{PaperLanes, LB, NOT_KINKED};
 pub(crate) use nodes::{choose_nodes_from, BatchScratch};
 pub use nodes::{ADAPT_MIN_LEAVES, LOW_SERIES_TOL, SHORT_SERIES_TOL};
 pub(crate) use pass::{beside_leftovers, fast_sum_fixed, leftover_pass, spread_task};
-pub use branch::fast_branch_spectrum;
 pub use pass::{chunk_len, fast_band_spectrum, fast_sum_terms, FAST_CHUNK};
 pub use plan::{nodes_for_tol, FastPlan, PlanCache, K_FACTOR_TOL, MAX_NODES, MIN_TOL};
 pub(crate) use po::po_leaf;

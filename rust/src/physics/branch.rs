@@ -189,7 +189,13 @@ mod tests {
         }
         assert_eq!(piece_count(1.0, 0.3), 4);
         assert_eq!(piece_count(0.1, 0.3), 1);
-        assert_eq!(distance_to_segment([0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]), 1.0);
-        assert_eq!(distance_to_segment([3.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]), 2.0);
+        assert_eq!(
+            distance_to_segment([0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+            1.0
+        );
+        assert_eq!(
+            distance_to_segment([3.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+            2.0
+        );
     }
 }

@@ -75,11 +75,7 @@ impl Branches {
             }
             lengths.push(l);
             axes.push([d[0] / l, d[1] / l, d[2] / l]);
-            mids.push([
-                a[0] + 0.5 * d[0],
-                a[1] + 0.5 * d[1],
-                a[2] + 0.5 * d[2],
-            ]);
+            mids.push([a[0] + 0.5 * d[0], a[1] + 0.5 * d[1], a[2] + 0.5 * d[2]]);
             bound_radii.push(0.5 * l + radii[i]);
         }
         let (joined, joined_at) = joints(&starts, &ends);
@@ -156,8 +152,18 @@ mod tests {
     #[test]
     fn segments_sharing_an_end_point_are_joined() {
         let b = Branches::new(
-            vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [5.0, 0.0, 0.0]],
-            vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [1.0, 0.0, 1.5], [6.0, 0.0, 0.0]],
+            vec![
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, 1.0],
+                [5.0, 0.0, 0.0],
+            ],
+            vec![
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, 2.0],
+                [1.0, 0.0, 1.5],
+                [6.0, 0.0, 0.0],
+            ],
             vec![0.1, 0.08, 0.03, 0.01],
         )
         .unwrap();
@@ -174,8 +180,12 @@ mod tests {
     fn bad_segments_are_refused_by_index() {
         let e = Branches::new(vec![[0.0; 3]], vec![[0.0; 3]], vec![0.1]).unwrap_err();
         assert!(e.to_string().contains("branch 0 has zero length"), "{e}");
-        let e = Branches::new(vec![[0.0; 3], [0.0; 3]], vec![[1.0; 3], [1.0; 3]], vec![0.1, -1.0])
-            .unwrap_err();
+        let e = Branches::new(
+            vec![[0.0; 3], [0.0; 3]],
+            vec![[1.0; 3], [1.0; 3]],
+            vec![0.1, -1.0],
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("branch 1 radius"), "{e}");
         let e = Branches::new(vec![[0.0, f64::NAN, 0.0]], vec![[1.0; 3]], vec![0.1]).unwrap_err();
         assert!(e.to_string().contains("non-finite start"), "{e}");

@@ -49,7 +49,11 @@ fn face_of(w: V3) -> (usize, f64, f64) {
         2
     };
     let d = w[a].abs();
-    (2 * a + usize::from(w[a] < 0.0), w[(a + 1) % 3] / d, w[(a + 2) % 3] / d)
+    (
+        2 * a + usize::from(w[a] < 0.0),
+        w[(a + 1) % 3] / d,
+        w[(a + 2) % 3] / d,
+    )
 }
 
 /// The range of slopes `x_b / x_a` over a ball of centre `(vb, z)` and radius `rho` in the
@@ -68,7 +72,12 @@ impl Buffer {
     pub(super) fn new(w: &[V3], h_hint: f64) -> Buffer {
         let n = w.len();
         let at: Vec<(usize, f64, f64)> = w.iter().map(|&w| face_of(w)).collect();
-        let mut bbox = [(f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY); 6];
+        let mut bbox = [(
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ); 6];
         for &(f, u, v) in &at {
             let b = &mut bbox[f];
             *b = (b.0.min(u), b.1.max(u), b.2.min(v), b.3.max(v));
@@ -195,7 +204,10 @@ impl Buffer {
         if !(z > rho) {
             return None;
         }
-        Some((slopes(v[(a + 1) % 3], z, rho), slopes(v[(a + 2) % 3], z, rho)))
+        Some((
+            slopes(v[(a + 1) % 3], z, rho),
+            slopes(v[(a + 2) % 3], z, rho),
+        ))
     }
 
     /// Visit the cells of face `f` within the slope ranges `u`, `w`.
@@ -211,15 +223,18 @@ impl Buffer {
         if fc.nu == 0 {
             return;
         }
-        let (umax, vmax) = (
-            fc.u0 + fc.nu as f64 * self.h,
-            fc.v0 + fc.nv as f64 * self.h,
-        );
+        let (umax, vmax) = (fc.u0 + fc.nu as f64 * self.h, fc.v0 + fc.nv as f64 * self.h);
         if u.1 < fc.u0 || w.1 < fc.v0 || u.0 > umax || w.0 > vmax {
             return;
         }
-        let (i0, i1) = (self.coord(u.0, fc.u0), self.coord(u.1, fc.u0).min(fc.nu - 1));
-        let (j0, j1) = (self.coord(w.0, fc.v0), self.coord(w.1, fc.v0).min(fc.nv - 1));
+        let (i0, i1) = (
+            self.coord(u.0, fc.u0),
+            self.coord(u.1, fc.u0).min(fc.nu - 1),
+        );
+        let (j0, j1) = (
+            self.coord(w.0, fc.v0),
+            self.coord(w.1, fc.v0).min(fc.nv - 1),
+        );
         if i0 > i1 || j0 > j1 {
             return;
         }

@@ -91,7 +91,10 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
             }
         },
     );
-    let buf = Buffer::new(&w, 2.0 * typical_angular_radius(scene, origin, &leaves, &segments));
+    let buf = Buffer::new(
+        &w,
+        2.0 * typical_angular_radius(scene, origin, &leaves, &segments),
+    );
     let rays: Vec<Ray> = buf
         .order
         .iter()

@@ -32,7 +32,8 @@ fn brute_force(scene: &Scene, origin: V3, targets: &[Target], branches_block: bo
                             continue;
                         }
                     }
-                    let c = Cylinder::new(rel(br.starts[j]), br.axes[j], br.lengths[j], br.radii[j]);
+                    let c =
+                        Cylinder::new(rel(br.starts[j]), br.axes[j], br.lengths[j], br.radii[j]);
                     s.blocked |= c.crossed_by(w);
                 }
             }
@@ -56,7 +57,11 @@ fn clumped(n: usize, seed: u64, branches: Branches) -> Scene {
     let (mut c, mut nv, mut r) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..n {
         let k = clumps[i % clumps.len()];
-        c.push([k[0] + 0.6 * (u() - 0.5), k[1] + 0.6 * (u() - 0.5), k[2] + 0.6 * (u() - 0.5)]);
+        c.push([
+            k[0] + 0.6 * (u() - 0.5),
+            k[1] + 0.6 * (u() - 0.5),
+            k[2] + 0.6 * (u() - 0.5),
+        ]);
         nv.push(unit(&mut u));
         r.push(0.005 * 10f64.powf(u()));
     }
@@ -75,13 +80,20 @@ fn leaf_targets(scene: &Scene, every: usize) -> Vec<Target> {
 
 #[test]
 fn leaf_crossings_equal_brute_force_in_clumped_scenes() {
-    for (seed, origin) in [(1, [0.0, 0.0, 0.0]), (2, [3.0, 0.5, -0.2]), (3, [9.0, 3.0, 2.0])] {
+    for (seed, origin) in [
+        (1, [0.0, 0.0, 0.0]),
+        (2, [3.0, 0.5, -0.2]),
+        (3, [9.0, 3.0, 2.0]),
+    ] {
         let scene = clumped(6000, seed, Branches::default());
         let targets = leaf_targets(&scene, 3);
         let got = cast(&scene, origin, &targets, false);
         let want = brute_force(&scene, origin, &targets, false);
         assert_eq!(got, want, "seed {seed}");
-        assert!(got.iter().any(|s| s.crossings > 1), "seed {seed}: no shading to test");
+        assert!(
+            got.iter().any(|s| s.crossings > 1),
+            "seed {seed}: no shading to test"
+        );
     }
 }
 
@@ -93,7 +105,9 @@ fn a_row_of_leaves_each_behind_the_last_counts_every_one_in_front() {
     let targets = leaf_targets(&scene, 1);
     let got = cast(&scene, [0.0; 3], &targets, false);
     for (t, s) in targets.iter().zip(&got) {
-        let Target::Leaf { leaf, .. } = t else { unreachable!() };
+        let Target::Leaf { leaf, .. } = t else {
+            unreachable!()
+        };
         // stored order may differ from the row's: count the leaves nearer than this one
         let x = scene.centers.get(*leaf as usize)[0];
         let nearer = (0..n).filter(|&j| scene.centers.get(j)[0] < x).count() as u32;
@@ -103,8 +117,18 @@ fn a_row_of_leaves_each_behind_the_last_counts_every_one_in_front() {
 
 #[test]
 fn coincident_leaves_do_not_shade_each_other_and_a_leaf_behind_one_is_shaded() {
-    let c = vec![[2.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [2.0, 0.05, 0.0]];
-    let n = vec![[1.0, 0.0, 0.0], [0.6, 0.8, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let c = vec![
+        [2.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [3.0, 0.0, 0.0],
+        [2.0, 0.05, 0.0],
+    ];
+    let n = vec![
+        [1.0, 0.0, 0.0],
+        [0.6, 0.8, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
     let scene = Scene::new(c, n, vec![0.02, 0.02, 0.02, 0.02]).unwrap();
     let targets = leaf_targets(&scene, 1);
     let got = cast(&scene, [0.0; 3], &targets, false);
@@ -169,7 +193,10 @@ fn sights_are_the_same_for_one_and_two_threads() {
     let scene = clumped(20_000, 4, Branches::default());
     let targets = leaf_targets(&scene, 1);
     let a = cast(&scene, [0.0, 0.1, 0.0], &targets, false);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let b = pool.install(|| cast(&scene, [0.0, 0.1, 0.0], &targets, false));
     assert_eq!(a, b);
 }
