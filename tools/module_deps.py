@@ -3,7 +3,7 @@
 a cycle.
 
 A top-level module is a folder of `rust/src` (`math`, `physics`, ...) or a file beside
-`lib.rs` (`simulate`, `error`). An edge `a -> b` means some file under `a` names `crate::b`
+`lib.rs` (`simulate`, `error`), with the folder of its submodules if it has one. An edge `a -> b` means some file under `a` names `crate::b`
 in code (comments and string literals are ignored; `#[cfg(test)]` code counts too, so tests
 keep to the same order). `lib.rs` itself (the module list and the unit tests' helpers) is
 not a node.
@@ -39,10 +39,11 @@ def top_modules(src: Path) -> dict[str, list[Path]]:
     """Top-level module name -> its source files."""
     mods: dict[str, list[Path]] = {}
     for p in sorted(src.iterdir()):
+        # (a file `a.rs` and a folder `a/` of its submodules are one module)
         if p.is_dir():
-            mods[p.name] = sorted(p.rglob("*.rs"))
+            mods.setdefault(p.name, []).extend(sorted(p.rglob("*.rs")))
         elif p.suffix == ".rs" and p.name != "lib.rs":
-            mods[p.stem] = [p]
+            mods.setdefault(p.stem, []).append(p)
     return mods
 
 

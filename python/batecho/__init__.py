@@ -34,7 +34,9 @@ from .forest.ipp import (
 from .forest.scene import Scene
 from .sonar.absorption import Atmosphere
 from .sonar.beam import Beam, horseshoe_bat_beamwidth_deg
+from .sonar.shading import Shading
 from .sonar.sonar import Sonar
+from .trees.branches import Branches
 from .trees.branching import Branching, trunk_branching
 from .trees.grow import grow_tree
 from .trees.leaves import Leaves
@@ -88,6 +90,7 @@ __all__ = [
     "Atmosphere",
     "Beam",
     "BranchLayout",
+    "Branches",
     "Branching",
     "Echoes",
     "Flight",
@@ -105,6 +108,7 @@ __all__ = [
     "SceneFile",
     "ScenefileError",
     "Segments",
+    "Shading",
     "Sonar",
     "SonarMount",
     "SquaredExponentialMixture",

@@ -14,11 +14,22 @@ _F64 = npt.NDArray[np.float64]
 _BeamTuple = tuple[float, float, float, float, float, float]  # (A1, sx, sy, theta, az0, el0)
 
 class Scene:
-    """Leaves (centres (n,3), unit normals (n,3), radii (n,)) and their BVH."""
+    """Leaves (centres (n,3), unit normals (n,3), radii (n,)) and their BVH; branch segments
+    (starts (k,3), ends (k,3), radii (k,)). Either may be empty, not both."""
 
-    def __init__(self, centers: _F64, normals: _F64, radii: _F64) -> None: ...
+    def __init__(
+        self,
+        centers: _F64,
+        normals: _F64,
+        radii: _F64,
+        branch_starts: _F64 | None = None,
+        branch_ends: _F64 | None = None,
+        branch_radii: _F64 | None = None,
+    ) -> None: ...
     @property
     def n_leaves(self) -> int: ...
+    @property
+    def n_branches(self) -> int: ...
     @property
     def build_time_s(self) -> float: ...
     @property
@@ -51,6 +62,8 @@ class Sonar:
         min_range: float,
         too_close: str,
         min_ka: float,
+        shading: tuple[float, bool] | None = None,
+        branch_piece_scale: float = 1.0,
     ) -> None: ...
     @property
     def freqs(self) -> _F64: ...
@@ -74,7 +87,14 @@ def simulate(
     search: str = "bvh",
     method: str = "exact",
     tol: float = 1e-12,
-) -> tuple[npt.NDArray[np.complex128], _F64 | None, npt.NDArray[np.uint64]]: ...
+) -> tuple[
+    npt.NDArray[np.complex128],
+    _F64 | None,
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.complex128] | None,
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint64],
+]: ...
 def lobe_members(
     scene: Scene,
     sonar: Sonar,

@@ -27,6 +27,11 @@ class Echoes:
     ``spectrum`` (p, M) complex128: the windowed band spectrum ``Y_k`` at ``freqs`` (M,) Hz.
     ``impulse`` (p, n_samples) float64: ``2 irfft(Y, n)`` at ``times`` (n_samples,) s.
     ``n_leaves`` (p,): how many leaves counted for each pose.
+
+    With branches in the scene: ``wood_spectrum`` (p, M), the branches' share of ``spectrum``
+    (None without branches; :meth:`wood_impulse` is its impulse response), and ``n_pieces``
+    (p,), how many branch pieces counted. With shading: ``n_shaded`` (p,), how many counting
+    leaves it dimmed or silenced (zeros without shading).
     """
 
     spectrum: np.ndarray
@@ -36,6 +41,15 @@ class Echoes:
     n_leaves: np.ndarray
     sonar: Sonar
     poses: Poses
+    wood_spectrum: np.ndarray | None = None
+    n_pieces: np.ndarray | None = None
+    n_shaded: np.ndarray | None = None
+
+    def __post_init__(self):
+        p = self.spectrum.shape[0]
+        for name in ("n_pieces", "n_shaded"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(p, dtype=np.int64))
 
     @property
     def ranges(self) -> np.ndarray:
@@ -47,6 +61,17 @@ class Echoes:
         from scipy.signal import hilbert
 
         return np.abs(hilbert(self.impulse, axis=-1))
+
+    def wood_impulse(self) -> np.ndarray | None:
+        """(p, n_samples) impulse response of the wood's share of the echo,
+        ``2 irfft(wood_spectrum, n)`` (None without branches)."""
+        if self.wood_spectrum is None:
+            return None
+        k0 = int(round(self.freqs[0] * len(self.times) / self.sonar.fs))
+        n = len(self.times)
+        full = np.zeros((len(self), n // 2 + 1), dtype=np.complex128)
+        full[:, k0 : k0 + self.wood_spectrum.shape[1]] = self.wood_spectrum
+        return 2.0 * np.fft.irfft(full, n, axis=-1)
 
     def __len__(self) -> int:
         return self.spectrum.shape[0]
@@ -65,7 +90,8 @@ def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
 def simulate(
     scene: Any, sonar: Sonar, poses: Poses, method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL
 ) -> Echoes:
-    """Echoes of ``scene`` (a Scene, or Leaves) for each pose in ``poses``.
+    """Echoes of ``scene`` (a Scene, Leaves, or anything with ``.scene()``) for each pose in
+    ``poses``.
 
     ``method``:
 
@@ -98,7 +124,7 @@ def simulate(
             sc._core, sonar._core, poses.positions, poses.forward, poses.up, poses.left
         )
         sonar = sonar.resolve(sonar.record_length_for(float(far.max())))
-    spec, imp, counts = _core.simulate(
+    spec, imp, counts, wood, pieces, shaded = _core.simulate(
         sc._core,
         sonar._core,
         poses.positions,
@@ -119,11 +145,14 @@ def simulate(
         n_leaves=counts.astype(np.int64),
         sonar=sonar,
         poses=poses,
+        wood_spectrum=wood,
+        n_pieces=pieces.astype(np.int64),
+        n_shaded=shaded.astype(np.int64),
     )
 
 
 def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") -> np.ndarray:
-    """Indices (ascending, int64) of the leaves that count for one pose.
+    """Indices (ascending, int64) of the leaves that count for one pose (branches apart).
 
     ``search="bvh"`` traverses the BVH; ``"brute_force"`` tests every leaf. Both apply the same
     exact f64 test per leaf, so they return the same set.

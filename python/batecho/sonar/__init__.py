@@ -1,16 +1,19 @@
-"""The sonar: beampatterns, the lobe rule, the frequency grid, the leaf model's parameters and
-atmospheric absorption."""
+"""The sonar: beampatterns, the lobe rule, the frequency grid, the leaf model's parameters,
+atmospheric absorption and shading."""
 
 from __future__ import annotations
 
 from .absorption import Atmosphere, iso9613_alpha_db_per_m
 from .beam import Beam, horseshoe_bat_beamwidth_deg, sigma_from_beamwidth_deg
+from .shading import DEFAULT_LEAF_TRANSMISSION, Shading
 from .sonar import DEFAULT_BEAMWIDTH_DEG, Sonar
 
 __all__ = [
     "DEFAULT_BEAMWIDTH_DEG",
+    "DEFAULT_LEAF_TRANSMISSION",
     "Atmosphere",
     "Beam",
+    "Shading",
     "Sonar",
     "horseshoe_bat_beamwidth_deg",
     "iso9613_alpha_db_per_m",

@@ -48,9 +48,31 @@ type SimOut<'py> = (
     Bound<'py, PyArray2<Complex64>>,
     Option<Bound<'py, PyArray2<f64>>>,
     Bound<'py, PyArray1<u64>>,
+    Option<Bound<'py, PyArray2<Complex64>>>,
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u64>>,
 );
 
-/// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`.
+/// `(p, M)` complex values from separate real and imaginary parts.
+fn complex_rows<'py>(
+    py: Python<'py>,
+    p: usize,
+    m: usize,
+    re: &[f64],
+    im: &[f64],
+) -> Bound<'py, PyArray2<Complex64>> {
+    let v: Vec<Complex64> = re
+        .iter()
+        .zip(im)
+        .map(|(&re, &im)| Complex64::new(re, im))
+        .collect();
+    Array2::from_shape_vec((p, m), v)
+        .expect("p * M values")
+        .into_pyarray(py)
+}
+
+/// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,),
+/// wood spectrum (p, M) or None without branches, n_pieces (p,), n_shaded (p,))`.
 /// `method` is "exact", "fast" or "auto" (the last two use `tol`); both are required, so that
 /// the defaults live in one place (`batecho.simulate`).
 #[pyfunction(name = "simulate")]
@@ -87,15 +109,9 @@ pub(crate) fn simulate_py<'py>(
         .map_err(to_py)?;
     let p = out.n_leaves.len();
     let m = out.n_bins;
-    let spec: Vec<Complex64> = out
-        .spectrum_re
-        .iter()
-        .zip(&out.spectrum_im)
-        .map(|(&re, &im)| Complex64::new(re, im))
-        .collect();
-    let spec = Array2::from_shape_vec((p, m), spec)
-        .expect("p * M values")
-        .into_pyarray(py);
+    let spec = complex_rows(py, p, m, &out.spectrum_re, &out.spectrum_im);
+    let wood = (!scene.inner.branches.is_empty())
+        .then(|| complex_rows(py, p, m, &out.wood_re, &out.wood_im));
     let imp = if impulse {
         let n = sonar.inner.params.n_samples;
         Some(
@@ -106,7 +122,14 @@ pub(crate) fn simulate_py<'py>(
     } else {
         None
     };
-    Ok((spec, imp, out.n_leaves.into_pyarray(py)))
+    Ok((
+        spec,
+        imp,
+        out.n_leaves.into_pyarray(py),
+        wood,
+        out.n_pieces.into_pyarray(py),
+        out.n_shaded.into_pyarray(py),
+    ))
 }
 
 /// Indices (ascending) of the leaves that count for one pose.

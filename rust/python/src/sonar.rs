@@ -5,7 +5,7 @@ use batecho::error::Error;
 use batecho::fast::FastSonar;
 use batecho::physics::absorption::Atmosphere;
 use batecho::physics::beam::GaussianBeam;
-use batecho::sonar::{LeafModel, LobeRule, Sonar, SonarParams, TooClose, Window};
+use batecho::sonar::{LeafModel, LobeRule, Shading, Sonar, SonarParams, TooClose, Window};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -31,7 +31,7 @@ impl PySonar {
     #[pyo3(signature = (
         emitter, receiver, lobe, threshold_db, r0, p0, p_ref, cone_half_angle, max_range,
         fs, n_samples, f_lo, f_hi, sound_speed, leaf_model, spreading, gain, window,
-        atmosphere, min_range, too_close, min_ka
+        atmosphere, min_range, too_close, min_ka, shading=None, branch_piece_scale=1.0
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -57,6 +57,8 @@ impl PySonar {
         min_range: f64,
         too_close: &str,
         min_ka: f64,
+        shading: Option<(f64, bool)>,
+        branch_piece_scale: f64,
     ) -> PyResult<Self> {
         let err = |m: String| PyValueError::new_err(m);
         let lobe = match lobe {
@@ -125,6 +127,11 @@ impl PySonar {
             min_range,
             too_close,
             min_ka,
+            shading: shading.map(|(leaf_transmission, branches_block)| Shading {
+                leaf_transmission,
+                branches_block,
+            }),
+            branch_piece_scale,
         };
         Ok(PySonar {
             inner: Arc::new(FastSonar::new(Sonar::new(params).map_err(to_py)?)),
