@@ -198,7 +198,7 @@ def test_grow_tree_bark_faces_index_vertices_and_groups_are_named(tree):
 
 
 def test_grow_tree_branches_start_at_lsystem_points_on_the_trunk(tree):
-    lay = tree.branches
+    lay = tree.layout
     assert len(lay) == len(tree.branch_names)
     for axis, origin in zip(lay.axes, lay.origins, strict=True):
         assert np.allclose(axis[0], origin)
@@ -216,7 +216,7 @@ def _kabsch(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
 
 def test_zero_randomisation_moves_each_reference_branch_rigidly(zero_tree):
     ref = load_reference()
-    lay = zero_tree.branches
+    lay = zero_tree.layout
     for i in range(len(lay)):
         tpl = ref.branches[lay.reference_index[i]]
         grown = zero_tree.leaves.centers[zero_tree.leaf_branch == i] - lay.origins[i]
@@ -232,7 +232,7 @@ def test_zero_randomisation_keeps_each_branch_upper_side_up(zero_tree):
     # the transport turns the azimuth, then the polar angle: heights above the chord, measured
     # in the vertical plane through it, are kept (no roll about the branch)
     ref = load_reference()
-    lay = zero_tree.branches
+    lay = zero_tree.layout
 
     def up_of(d):
         u = np.array([0.0, 0.0, 1.0]) - d[2] * d
@@ -247,7 +247,7 @@ def test_zero_randomisation_keeps_each_branch_upper_side_up(zero_tree):
 
 def test_length_scale_moves_each_tip_that_many_times_farther_along_the_axis(zero_tree):
     longer = grow_tree(np.random.default_rng(5), **ZERO, length_scale=1.2)
-    a, b = zero_tree.branches, longer.branches
+    a, b = zero_tree.layout, longer.layout
     assert np.allclose(b.origins, a.origins)
     assert np.allclose(b.tips - b.origins, 1.2 * (a.tips - a.origins), atol=1e-12)
     assert np.allclose(b.length_scales, 1.2)
@@ -264,7 +264,7 @@ def test_length_scale_keeps_sub_branches_their_size(zero_tree):
 
 def test_droop_bends_each_axis_down_by_the_given_tip_angle_keeping_its_length(zero_tree):
     bent = grow_tree(np.random.default_rng(5), **{**ZERO, "droop_deg": 30.0})
-    for a0, a1 in zip(zero_tree.branches.axes, bent.branches.axes, strict=True):
+    for a0, a1 in zip(zero_tree.layout.axes, bent.layout.axes, strict=True):
         l0 = np.linalg.norm(np.diff(a0, axis=0), axis=1)
         l1 = np.linalg.norm(np.diff(a1, axis=0), axis=1)
         assert l1.sum() == pytest.approx(l0.sum(), rel=1e-3)  # arcs for segments: chords
@@ -292,7 +292,7 @@ def test_bend_turns_bark_and_leaves_with_the_axis_keeping_units_rigid(zero_tree)
 
 def test_slide_moves_sub_branches_rigidly_leaving_the_axes(zero_tree):
     slid = grow_tree(np.random.default_rng(5), **{**ZERO, "slide_sd": 0.2})
-    for a0, a1 in zip(zero_tree.branches.axes, slid.branches.axes, strict=True):
+    for a0, a1 in zip(zero_tree.layout.axes, slid.layout.axes, strict=True):
         assert np.allclose(a0, a1)
     moved = 0
     clusters = np.unique(zero_tree.leaf_cluster)
@@ -317,7 +317,7 @@ def test_leaves_stay_close_to_their_own_branch_bark():
 
 def test_random_branch_choice_uses_reference_branches_at_random():
     t = grow_tree(np.random.default_rng(1), branch_choice="random", n_branches=30)
-    assert len(np.unique(t.branches.reference_index)) > 3
+    assert len(np.unique(t.layout.reference_index)) > 3
 
 
 def test_grow_tree_accepts_a_user_obj_reference(tmp_path, lsys_tree):
@@ -333,9 +333,9 @@ def test_grow_tree_accepts_a_user_obj_reference(tmp_path, lsys_tree):
 def test_derived_reference_with_zero_randomisation_is_rigid(tmp_path, lsys_tree):
     ref = load_reference(lsys_tree.to_mesh())
     t = grow_tree(np.random.default_rng(0), reference=ref, **ZERO)
-    for i in range(len(t.branches)):
-        tpl = ref.branches[t.branches.reference_index[i]]
-        grown = t.leaves.centers[t.leaf_branch == i] - t.branches.origins[i]
+    for i in range(len(t.layout)):
+        tpl = ref.branches[t.layout.reference_index[i]]
+        grown = t.leaves.centers[t.leaf_branch == i] - t.layout.origins[i]
         _, resid = _kabsch(tpl.leaf_centers - tpl.base, grown)
         assert resid < 1e-9
 
