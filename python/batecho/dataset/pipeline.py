@@ -179,6 +179,18 @@ def _lobe_labels(built: BuiltScene, sonar: Sonar, poses: Poses) -> dict[str, np.
     return {"nearest_range_m": nearest, "lobe_mean_radius_m": mean_radius}
 
 
+def _wood_labels(spec: DatasetSpec, built: BuiltScene, poses: Poses, echoes: Any) -> dict:
+    """``n_shaded`` (with shading) and ``nearest_wood_m``, ``n_pieces`` (with branches)."""
+    out: dict[str, Any] = {}
+    if spec.sonar.shading:
+        out["n_shaded"] = echoes.n_shaded
+    wood = built.scene.branches
+    if spec.has_wood and wood is not None:
+        out["nearest_wood_m"] = np.array([wood.distance_to(p).min() for p in poses.positions])
+        out["n_pieces"] = echoes.n_pieces
+    return out
+
+
 def draw_sample(spec: DatasetSpec, i: int, scenes: SceneCache | None = None) -> Sample:
     """Sample ``i`` of ``spec``: scene, beamwidth, poses, echoes and labels.
 
@@ -200,6 +212,7 @@ def draw_sample(spec: DatasetSpec, i: int, scenes: SceneCache | None = None) -> 
         **{name: built.labels[name] for name in scene_label_names(spec)},
         "n_leaves": echoes.n_leaves,
         **_lobe_labels(built, sonar, poses),
+        **_wood_labels(spec, built, poses, echoes),
     }
     return Sample(i, j, built, sonar, poses, echoes, labels)
 

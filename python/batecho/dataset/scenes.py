@@ -164,7 +164,10 @@ def _forest(spec: DatasetSpec, rng: np.random.Generator) -> BuiltScene:
     center = np.asarray(forest.mean_position, dtype=np.float64).reshape(-1)
     if center.shape == (2,):
         center = np.array([center[0], center[1], 0.0])
-    scene = Scene(leaves) if fs.redraw_leaves else forest.scene()
+    if fs.redraw_leaves:
+        scene = Scene(leaves, branches=forest.branches if fs.branches else None)
+    else:
+        scene = forest.scene(branches=fs.branches)
     return BuiltScene(scene, center, (lo, hi), labels)
 
 

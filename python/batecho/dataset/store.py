@@ -9,6 +9,8 @@ Layout (Zarr format 3, consolidated metadata; opens with ``xarray.open_zarr``)::
       impulse  (sample, pulse, time)  float32|float64       when output.impulse
       spectrum (sample, pulse, freq)  complex64|complex128  when output.spectrum
       n_leaves, nearest_range_m, lobe_mean_radius_m (sample, pulse)     per-pulse labels
+      n_shaded (sample, pulse)                  with sonar.shading
+      nearest_wood_m, n_pieces (sample, pulse)  with scene.forest.branches
       position, forward, up (sample, pulse, xyz) m / unit vectors        the poses
       scene_index, beamwidth_deg, <pose and scene labels> (sample,)      per-sample labels
       chunk_checksum (chunk,) uint64                                     completion markers
@@ -147,6 +149,32 @@ def schema(spec: DatasetSpec) -> list[Var]:
             "m",
             "mean radius of the counting leaves (NaN: none counted)",
         ),
+    ]
+    if spec.sonar.shading:
+        out.append(
+            Var(
+                "n_shaded",
+                sp,
+                "int32",
+                -1,
+                "1",
+                "counting leaves whose echo shading dimmed or silenced (docs/model.md §10)",
+            )
+        )
+    if spec.has_wood:
+        out += [
+            Var(
+                "nearest_wood_m",
+                sp,
+                "float64",
+                nan,
+                "m",
+                "distance from the pulse to the nearest wood surface (trunk, branch or twig) "
+                "in the scene",
+            ),
+            Var("n_pieces", sp, "int32", -1, "1", "branch pieces that counted for the pulse"),
+        ]
+    out += [
         Var("position", (*sp, "xyz"), "float64", nan, "m", "pulse position (x, y, z)"),
         Var("forward", (*sp, "xyz"), "float64", nan, "1", "beam axis, unit vector"),
         Var("up", (*sp, "xyz"), "float64", nan, "1", "sonar up, unit vector"),
