@@ -633,7 +633,7 @@ class DatasetSpec(_Section):
     def _check(self) -> None:
         if self.scene.kind != "forest" and self.scene.forest.branches:
             raise SpecError(
-                f"scene.forest.branches = true needs scene.kind = \"forest\" (the "
+                f'scene.forest.branches = true needs scene.kind = "forest" (the '
                 f"{self.scene.kind!r} scenes have no trees)"
             )
         if self.scene.reuse == "pool" and self.scene.pool_size > self.n_samples:

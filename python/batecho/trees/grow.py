@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -195,6 +196,13 @@ def grow_tree(
     ref = load_reference(reference)
     if not ref.branches:
         raise ValueError("the reference tree has no first-level branches")
+    if not ref.has_skeleton:
+        warnings.warn(
+            "the reference tree has no woody skeleton (an OBJ without its JSON sidecar), so the "
+            "grown tree's wood is silent (Tree.branches is None)",
+            UserWarning,
+            stacklevel=2,
+        )
     if branch_choice not in ("height", "random"):
         raise ValueError(f"branch_choice must be 'height' or 'random', got {branch_choice!r}")
     h_ref = ref.trunk_height

@@ -373,7 +373,12 @@ def _template(
     else:
         lc, ln, lr = leaves.centers, leaves.normals, leaves.radii
     if skeleton is None:
-        skeleton = (np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros((0, 2), np.int64), np.zeros(0))
+        skeleton = (
+            np.zeros((0, 3)),
+            np.zeros(0, np.int64),
+            np.zeros((0, 2), np.int64),
+            np.zeros(0),
+        )
     sp, su, ss, sr = skeleton
     return BranchTemplate(
         name=name,
