@@ -21,10 +21,10 @@ from scipy.special import erf, j1
 
 from .echoes.simulate import Echoes
 from .flight.poses import Poses
+from .forest.scene import Scene
 from .sonar.absorption import iso9613_alpha_db_per_m
 from .sonar.beam import Beam
 from .sonar.sonar import Sonar
-from .forest.scene import Scene
 from .trees.branches import Branches
 from .trees.leaves import Leaves, as_leaves
 
@@ -212,7 +212,9 @@ def _incidence(e: np.ndarray, n: np.ndarray):
 
 # Section 9: branches ------------------------------------------------------------------------
 #: The largest quadratic phase error across a branch piece, k l^2 / (4 r), at the band's top.
-PIECE_PHASE = math.pi / 8.0
+PIECE_PHASE = math.pi / 512.0
+#: The largest share of the beam's Gaussian width a branch piece may span.
+PIECE_BEAM_SHARE = 1.0 / 32.0
 #: The most pieces one segment may be cut into for one pose.
 MAX_PIECES = 1 << 20
 
@@ -236,12 +238,12 @@ def _cylinder_po(k, a, length, cos_g, sin_g):
 
 def _max_piece_length(sonar: Sonar, r: float, k_max: float) -> float:
     """The longest piece at nearest distance r: scale min(sqrt(4 r PIECE_PHASE / k_max),
-    sigma r / 4), sigma the narrowest Gaussian width of the two beams."""
+    PIECE_BEAM_SHARE sigma r), sigma the narrowest Gaussian width of the two beams."""
     tx = cast(Beam, sonar.beam)._core_tuple()
     rx = tx if sonar.receiver is None else sonar.receiver._core_tuple()
     sigma = min(tx[1], tx[2], rx[1], rx[2])
     far = math.sqrt(4.0 * r * PIECE_PHASE / k_max)
-    return sonar.branch_piece_scale * min(far, sigma * r / 4.0)
+    return sonar.branch_piece_scale * min(far, PIECE_BEAM_SHARE * sigma * r)
 
 
 def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -274,7 +276,6 @@ def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float
         for q in range(n):
             c = a + ((2 * q + 1) / (2 * n)) * d
             v = c - p
-            rc = math.sqrt(float(_dot(v, v)))
             sv = float(_dot(v, u))
             w = v - sv * u
             rho = math.sqrt(float(_dot(w, w)))
@@ -286,8 +287,12 @@ def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float
             ref.append(c - (rad / rho) * w)
             length.append(pl)
             radius.append(rad)
-            cg.append(rho / rc)
-            sg.append(abs(sv) / rc)
+            # the tilt as seen from the reference point: the slope of the near surface
+            # line's range there, so that adjacent pieces' edges meet in phase
+            h = rho - rad
+            rr = math.sqrt(sv * sv + h * h)
+            cg.append(h / rr)
+            sg.append(abs(sv) / rr)
     pts = np.array(ref).reshape(-1, 3)
     r, _, _, G = _view(pts, sonar, poses, i) if len(pts) else (np.zeros(0),) * 4
     close = ~(r >= sonar.min_range_m)
@@ -308,7 +313,7 @@ def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float
 
 def _wood_spectrum(sonar: Sonar, r, G, length, a, cg, sg, factor, f, w) -> np.ndarray:
     """The branch pieces' windowed band spectrum: amplitude g G f(k) / r^2 times the shading
-    factor (and absorption), phase -2 k r + pi/4."""
+    factor (and absorption), phase -2 k (r + l^2 cos^2(gamma) / (24 r)) + pi/4."""
     v = sonar.sound_speed
     k = 2.0 * np.pi * f / v
     Y = np.zeros(f.shape, dtype=np.complex128)
@@ -322,7 +327,9 @@ def _wood_spectrum(sonar: Sonar, r, G, length, a, cg, sg, factor, f, w) -> np.nd
             A = A / r[q] ** 2
         if alpha is not None:
             A = A * 10.0 ** (-alpha * 2.0 * r[q] / 20.0)
-        cycles = f * (2.0 * r[q] / v)
+        # the phase's range: the reference point's plus the piece's mean Fresnel lag
+        # l^2 cos^2(gamma) / (24 r) (docs/model.md §9)
+        cycles = f * (2.0 * (r[q] + length[q] * length[q] * cg[q] * cg[q] / (24.0 * r[q])) / v)
         Y += A * np.exp(1j * (-2.0 * np.pi * (cycles - np.round(cycles)) + np.pi / 4.0))
     return w * Y
 
@@ -347,13 +354,14 @@ def _disk_crossings(leaves: Leaves, origin: np.ndarray, w: np.ndarray, own: int)
 
 def _joined(branches: Branches) -> list[set[int]]:
     """For each segment, the others that share one of its end points bit for bit."""
-    key = lambda x: tuple(np.asarray(x, dtype=np.float64).view(np.uint64).tolist())  # noqa: E731
+    key = lambda x: tuple(np.asarray(x, dtype=np.float64).view(np.uint64).tolist())
     at: dict[tuple, set[int]] = {}
     for j in range(len(branches)):
         for pt in {key(branches.starts[j]), key(branches.ends[j])}:
             at.setdefault(pt, set()).add(j)
     return [
-        (at[key(branches.starts[j])] | at[key(branches.ends[j])]) - {j} for j in range(len(branches))
+        (at[key(branches.starts[j])] | at[key(branches.ends[j])]) - {j}
+        for j in range(len(branches))
     ]
 
 
@@ -423,6 +431,26 @@ def _shading(
     fl = [factor(cast(Leaves, leaves).centers[j], int(j), set()) for j in leaf_idx]
     fp = [factor(piece_ref[q], -1, {int(g)} | joined[g]) for q, g in enumerate(piece_seg)]
     return np.asarray(fl, dtype=np.float64), np.asarray(fp, dtype=np.float64)
+
+
+def leaf_sights(scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True):
+    """For each counting leaf of one pose (ascending index): the other leaf disks its ray
+    crosses and whether a branch blocks it, by testing every leaf and branch."""
+    from .echoes.simulate import LeafSights
+
+    leaves, branches = _parts(scene)
+    if leaves is None:
+        raise ValueError("leaf_sights needs a scene with leaves")
+    idx = np.flatnonzero(_counting(leaves, sonar, pose, 0)[0])
+    origin = pose.positions[0]
+    crossings = np.zeros(idx.size, dtype=np.int64)
+    blocked = np.zeros(idx.size, dtype=bool)
+    for q, j in enumerate(idx):
+        w = leaves.centers[j] - origin
+        crossings[q] = _disk_crossings(leaves, origin, w, int(j))
+        if branches_block and branches is not None:
+            blocked[q] = _blocked(branches, origin, w, set())
+    return LeafSights(idx.astype(np.int64), crossings, blocked)
 
 
 def _parts(scene: Any) -> tuple[Leaves | None, Branches | None]:
@@ -502,4 +530,4 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
     )
 
 
-__all__ = ["lobe_members", "simulate"]
+__all__ = ["leaf_sights", "lobe_members", "simulate"]

@@ -3,9 +3,10 @@
 //!
 //! A piece's term at bin k is `amp f(k) exp(j pi/4) exp(-j 2 k r)` (times absorption), with
 //! `f = c0 sqrt(k) sinc(k X)`, `c0 = (l/2) sqrt(a cos(gamma) / pi)`, `X = l sin(gamma)`
-//! ([`crate::physics::branch::cylinder_po`]). Where `k X` is small across the band the factor
-//! is smooth and the piece is one point at range `r`. Where it is not, the sinc would
-//! oscillate across the band; then the identity
+//! ([`crate::physics::branch::cylinder_po`]), and `r` the reference point's range plus the
+//! piece's mean Fresnel lag ([`crate::physics::branch::fresnel_lag`]). Where `k X` is small
+//! across the band the factor is smooth and the piece is one point at range `r`. Where it is
+//! not, the sinc would oscillate across the band; then the identity
 //! `sinc(k X) exp(-j 2 k r) = [exp(-j 2 k (r - X/2)) - exp(-j 2 k (r + X/2))] / (2 j k X)`
 //! splits the piece into its two edges, points at ranges `r -+ X/2` with the smooth factors
 //! `+- c0 exp(-j pi/4) / (2 X sqrt(k))`. Either way each point is a smooth factor times a
@@ -16,7 +17,7 @@ use crate::echo::prepared::Prepared;
 use crate::echo::tables::{lanes, lanes_mut, BandTables, LANES, POLY_BLOCK, POLY_DEG};
 use crate::echo::term::leaf_amp;
 use crate::lobe::PieceMember;
-use crate::physics::branch::{sinc, CYLINDER_PSI};
+use crate::physics::branch::{fresnel_lag, sinc, CYLINDER_PSI};
 use crate::physics::phase::CyclesPerBin;
 use crate::sonar::Sonar;
 use multiversion::multiversion;
@@ -27,7 +28,8 @@ use std::f64::consts::PI;
 pub struct BranchTerm {
     /// `g G / r^2` (or `g G` without spreading), times any shading factor.
     pub amp: f64,
-    /// The range of the piece's reference point (m): its delay and its absorption.
+    /// The range of the piece's reference point (m): its spreading and absorption, and, with
+    /// the piece's Fresnel lag, its delay.
     pub range: f64,
     pub length: f64,
     pub radius: f64,
@@ -72,7 +74,8 @@ impl PointForm {
 }
 
 /// One point of a piece's echo: its round-trip delay as a range (m), the range of its
-/// absorption (m), its smooth factor and its constant phase `(cos, sin)`.
+/// absorption (the reference point's, m), its smooth factor and its constant phase
+/// `(cos, sin)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BranchPoint {
     pub delay: f64,
@@ -88,9 +91,10 @@ pub fn branch_points(t: &BranchTerm, k_min: f64) -> ([BranchPoint; 2], usize) {
     let x = t.length * t.sin_gamma;
     // exp(-j psi) = exp(j pi/4)
     let (s, c) = (-CYLINDER_PSI).sin_cos();
+    let r = t.range + fresnel_lag(t.length, t.cos_gamma, t.range);
     if k_min * x < EDGE_MIN_KX {
         let p = BranchPoint {
-            delay: t.range,
+            delay: r,
             range: t.range,
             form: PointForm::Sinc { c: c0, x },
             phase: (c, s),
@@ -100,13 +104,13 @@ pub fn branch_points(t: &BranchTerm, k_min: f64) -> ([BranchPoint; 2], usize) {
     // c0 exp(j pi/4) / (2 j X) = (c0 / (2 X)) exp(-j pi/4)
     let e = PointForm::Edge { c: c0 / (2.0 * x) };
     let near = BranchPoint {
-        delay: t.range - 0.5 * x,
+        delay: r - 0.5 * x,
         range: t.range,
         form: e,
         phase: (c, -s),
     };
     let far = BranchPoint {
-        delay: t.range + 0.5 * x,
+        delay: r + 0.5 * x,
         phase: (-c, s),
         ..near
     };

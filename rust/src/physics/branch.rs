@@ -1,6 +1,7 @@
 //! Branch scattering (docs/model.md §9): physical optics (Kirchhoff) of a rigid finite circular
 //! cylinder, the point of a piece's near surface that its echo is referred to, and the rule
-//! that cuts a segment into pieces short enough to be in their own far field.
+//! that cuts a segment into pieces short enough to be in their own far field, with the mean
+//! Fresnel lag of a piece's near-field phase.
 //!
 //! With the leaves' normalisation (a scatterer contributes `L exp(-j psi) / k` per unit gain),
 //! a piece of length `l`, radius `a`, tilted by `gamma` from broadside has
@@ -41,8 +42,8 @@ pub fn cylinder_po(k: f64, radius: f64, length: f64, cos_gamma: f64, sin_gamma: 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PieceSight {
     /// The lit side: the point of the near surface line at the piece's centre (its echo's
-    /// reference), and `cos(gamma)`, `sin(gamma)` of the tilt from broadside (from the axis point
-    /// at the centre).
+    /// reference), and `cos(gamma)`, `sin(gamma)` of the tilt from broadside as seen from that
+    /// point (`sin(gamma)` is the slope of the near surface line's range).
     Lit {
         reference: V3,
         cos_gamma: f64,
@@ -55,6 +56,16 @@ pub enum PieceSight {
     Inside,
 }
 
+/// The range (m) by which a piece's echo lags its reference point: the mean, over the piece,
+/// of the quadratic (Fresnel) term of the one-way path to its near surface line,
+/// `x^2 cos^2(gamma) / (2 r)` for `x` in `[-l/2, l/2]`: `l^2 cos^2(gamma) / (24 r)`. Without
+/// it a piece at the rule's length errs by a third of its largest quadratic phase; with it,
+/// by the phase's spread, about `0.04 (k l^2 / (4 r))^2` of its amplitude.
+#[inline]
+pub fn fresnel_lag(length: f64, cos_gamma: f64, range: f64) -> f64 {
+    length * length * cos_gamma * cos_gamma / (24.0 * range)
+}
+
 /// How a sonar at `p` sees the piece with centre `c` (on the axis), unit axis `u`, radius `a`
 /// and length `length`. The reference point is `c - (a / rho) w`, where `w` is the part of
 /// `c - p` perpendicular to the axis and `rho = |w|`: the surface point nearest the sonar in
@@ -63,7 +74,6 @@ pub enum PieceSight {
 #[inline]
 pub fn piece_sight(p: V3, c: V3, u: V3, a: f64, length: f64) -> PieceSight {
     let v = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-    let rc = dot(v, v).sqrt();
     let s = dot(v, u);
     let w = [v[0] - s * u[0], v[1] - s * u[1], v[2] - s * u[2]];
     let rho = dot(w, w).sqrt();
@@ -75,26 +85,36 @@ pub fn piece_sight(p: V3, c: V3, u: V3, a: f64, length: f64) -> PieceSight {
         };
     }
     let f = a / rho;
+    // the tilt as seen from the reference point: the slope of the near surface line's range
+    // there, so that adjacent pieces' edges meet in phase
+    let h = rho - a;
+    let rr = (s * s + h * h).sqrt();
     PieceSight::Lit {
         reference: [c[0] - f * w[0], c[1] - f * w[1], c[2] - f * w[2]],
-        cos_gamma: rho / rc,
-        sin_gamma: s.abs() / rc,
+        cos_gamma: h / rr,
+        sin_gamma: s.abs() / rr,
     }
 }
 
 /// The default largest quadratic phase error across a piece, `k l^2 / (4 r)` at the band's top
-/// wavenumber (rad): pi/8.
-pub const PIECE_PHASE: f64 = PI / 8.0;
+/// wavenumber (rad): pi/512. The pieces' edges do not cancel exactly where a piece's linear
+/// phase `k l sin(gamma)` is large (their factors are taken at the piece's centre), so the sum
+/// converges only as the pieces shorten; at pi/512 halving them moves a trunk's echo by well
+/// under 1 % (docs/model.md §9, `tests/test_branches.py`).
+pub const PIECE_PHASE: f64 = PI / 512.0;
+
+/// The largest share of the beam's Gaussian width `sigma` a piece may span: 1/32.
+pub const PIECE_BEAM_SHARE: f64 = 1.0 / 32.0;
 
 /// The longest piece (m) the rule allows at range `r` (m) for the band's top wavenumber `k_max`
 /// (rad/m) and the beam's smallest Gaussian width `sigma` (rad), `scale` times
-/// `min(sqrt(4 r PIECE_PHASE / k_max), sigma r / 4)`: short enough that the quadratic phase
-/// across it, `k l^2 / (4 r)`, stays below [`PIECE_PHASE`] (its own far field) and that it
-/// spans a quarter of the beam's width at most (one beam gain).
+/// `min(sqrt(4 r PIECE_PHASE / k_max), PIECE_BEAM_SHARE sigma r)`: short enough that the
+/// quadratic phase across it, `k l^2 / (4 r)`, stays below [`PIECE_PHASE`] (its own far field)
+/// and that it sees one beam gain.
 #[inline]
 pub fn max_piece_length(r: f64, k_max: f64, sigma: f64, scale: f64) -> f64 {
     let far = (4.0 * r * PIECE_PHASE / k_max).sqrt();
-    let beam = sigma * r / 4.0;
+    let beam = PIECE_BEAM_SHARE * sigma * r;
     scale * far.min(beam)
 }
 
@@ -163,9 +183,9 @@ mod tests {
                 assert!((reference[0] - 1.9).abs() < 1e-15);
                 assert_eq!(reference[1], 0.0);
                 assert_eq!(reference[2], 0.5);
-                let rc = (4.0f64 + 0.25).sqrt();
-                assert!((cos_gamma - 2.0 / rc).abs() < 1e-15);
-                assert!((sin_gamma - 0.5 / rc).abs() < 1e-15);
+                let rr = (1.9f64 * 1.9 + 0.25).sqrt();
+                assert!((cos_gamma - 1.9 / rr).abs() < 1e-15);
+                assert!((sin_gamma - 0.5 / rr).abs() < 1e-15);
             }
             other => panic!("{other:?}"),
         }
@@ -185,7 +205,7 @@ mod tests {
         for r in [0.05, 0.5, 2.0, 9.0] {
             let l = max_piece_length(r, k, sigma, 1.0);
             assert!(k * l * l / (4.0 * r) <= PIECE_PHASE * (1.0 + 1e-12));
-            assert!(l <= sigma * r / 4.0 * (1.0 + 1e-12));
+            assert!(l <= PIECE_BEAM_SHARE * sigma * r * (1.0 + 1e-12));
         }
         assert_eq!(piece_count(1.0, 0.3), 4);
         assert_eq!(piece_count(0.1, 0.3), 1);

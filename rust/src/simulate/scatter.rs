@@ -9,7 +9,7 @@
 use super::{cost_exact, cost_fast, leaf_pose, Method};
 use crate::echo::{branch_term, leaf_term, sum_branch_terms, sum_terms, BranchTerm, LeafTerm};
 use crate::error::{invalid, Result};
-use crate::fast::{fast_branch_spectrum, fast_sum_terms, FastPlan, FastSonar};
+use crate::fast::{fast_branch_spectrum, fast_sum_terms, FastPlan, FastSonar, MIN_TOL};
 use crate::lobe::candidates::Candidates;
 use crate::lobe::{branch_members, members_of, PieceMember};
 use crate::physics::pose::Pose;
@@ -108,8 +108,30 @@ fn leaf_terms_spectrum(
     }
 }
 
+/// The margin by which the wood's fast spectrum must clear its tolerance (see
+/// [`wood_spectrum`]).
+const WOOD_TOL_MARGIN: f64 = 4.0;
+
+/// An upper bound on the size of a piece's echo over the band (its largest factor times its
+/// amplitude times the square root of the bin count): the scale of its error in the fast sum.
+fn piece_size(sonar: &Sonar, t: &BranchTerm) -> f64 {
+    let k = &sonar.wavenumbers;
+    let (k_lo, k_hi) = (k[0], k[k.len() - 1]);
+    let c0 = 0.5 * t.length * (t.radius * t.cos_gamma / std::f64::consts::PI).sqrt();
+    let kx = k_lo * t.length * t.sin_gamma;
+    let sinc_bound = if kx > 1.0 { 1.0 / kx } else { 1.0 };
+    t.amp * c0 * k_hi.sqrt() * sinc_bound * (k.len() as f64).sqrt()
+}
+
 /// The windowed spectrum of branch terms by the cheaper method for their number of echo
 /// points (one or two a piece, each costing about what a smooth leaf does).
+///
+/// The fast method keeps each point's error within its plan's `tol` of that point's size, and
+/// the errors add about as a root sum of squares. The pieces of one segment cancel (their shared
+/// edges), so the wood's sum may be far smaller than its pieces: where the root sum of squares of
+/// the pieces' sizes, times [`WOOD_TOL_MARGIN`], exceeds the sum's norm, the sum is redone with
+/// the plan's `tol` tightened by that ratio (rounded down to a power of ten, so that few plans
+/// are built), or exactly where that falls below the fast method's floor or costs more.
 fn wood_spectrum(
     sonar: &FastSonar,
     plan: Option<&FastPlan>,
@@ -117,12 +139,35 @@ fn wood_spectrum(
 ) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let points = 2 * terms.len();
-    match plan {
-        Some(pl) if cost_fast(points, m, pl) < cost_exact(points, m) => {
-            fast_branch_spectrum(sonar, pl, terms)
-        }
-        _ => sum_branch_terms(sonar, terms),
+    let pl = match plan {
+        Some(pl) if cost_fast(points, m, pl) < cost_exact(points, m) => pl,
+        _ => return sum_branch_terms(sonar, terms),
+    };
+    let (re, im) = fast_branch_spectrum(sonar, pl, terms);
+    let norm = re
+        .iter()
+        .zip(&im)
+        .map(|(a, b)| a * a + b * b)
+        .sum::<f64>()
+        .sqrt();
+    let rss = terms
+        .iter()
+        .map(|t| piece_size(sonar, t).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    if WOOD_TOL_MARGIN * rss <= norm {
+        return (re, im);
     }
+    let tight = pl.tol * norm / (WOOD_TOL_MARGIN * rss);
+    let tight = 10f64.powf(tight.log10().floor());
+    if tight >= MIN_TOL {
+        if let Ok(tp) = sonar.plans.get(sonar, tight) {
+            if cost_fast(points, m, &tp) < cost_exact(points, m) {
+                return fast_branch_spectrum(sonar, &tp, terms);
+            }
+        }
+    }
+    sum_branch_terms(sonar, terms)
 }
 
 /// The shading of every counting leaf and piece of one pose: their factors in the members'
