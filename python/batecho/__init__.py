@@ -15,7 +15,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._core import __version__
-from .echoes.simulate import Echoes, lobe_members, simulate
+from .echoes.simulate import Echoes, LeafSights, leaf_sights, lobe_members, simulate
 from .flight.kinematic import circle, figure_eight, line_to
 from .flight.mount import SonarMount
 from .flight.poses import Poses, look_at
@@ -97,6 +97,7 @@ __all__ = [
     "Forest",
     "IPPWarning",
     "LSystem",
+    "LeafSights",
     "Leaves",
     "Mesh",
     "ObjWarning",
@@ -120,6 +121,7 @@ __all__ = [
     "grow_tree",
     "horseshoe_bat_beamwidth_deg",
     "integrate_intensity",
+    "leaf_sights",
     "line_to",
     "load_obj",
     "load_reference",

@@ -104,6 +104,15 @@ def lobe_members(
     left: _F64,
     search: str = "bvh",
 ) -> npt.NDArray[np.int64]: ...
+def leaf_sights(
+    scene: Scene,
+    sonar: Sonar,
+    position: _F64,
+    forward: _F64,
+    up: _F64,
+    left: _F64,
+    branches_block: bool,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint64], npt.NDArray[np.bool_]]: ...
 def farthest_members(
     scene: Scene, sonar: Sonar, positions: _F64, forward: _F64, up: _F64, left: _F64
 ) -> _F64: ...

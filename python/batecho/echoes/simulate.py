@@ -67,8 +67,8 @@ class Echoes:
         ``2 irfft(wood_spectrum, n)`` (None without branches)."""
         if self.wood_spectrum is None:
             return None
-        k0 = int(round(self.freqs[0] * len(self.times) / self.sonar.fs))
         n = len(self.times)
+        k0 = int(np.rint(self.freqs[0] * n / self.sonar.fs))  # freqs[0] = k0 fs / n
         full = np.zeros((len(self), n // 2 + 1), dtype=np.complex128)
         full[:, k0 : k0 + self.wood_spectrum.shape[1]] = self.wood_spectrum
         return 2.0 * np.fft.irfft(full, n, axis=-1)
@@ -166,4 +166,46 @@ def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") 
     )
 
 
-__all__ = ["DEFAULT_METHOD", "DEFAULT_TOL", "METHODS", "Echoes", "lobe_members", "simulate"]
+@dataclass(frozen=True)
+class LeafSights:
+    """What lies on the rays to the counting leaves of one pose (docs/model.md §10).
+
+    ``index`` (int64, ascending): the leaves that count; ``crossings`` (int64): how many other
+    leaf disks the open segment from the sonar to each one's centre crosses; ``blocked``
+    (bool): whether a branch cylinder lies across it.
+    """
+
+    index: np.ndarray
+    crossings: np.ndarray
+    blocked: np.ndarray
+
+
+def leaf_sights(
+    scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True
+) -> LeafSights:
+    """The sights of the leaves that count for one pose: the crossings and blocks that
+    shading turns into the factor ``tau^(2 m)`` or 0. Rays are cast with the scene's BVH and
+    a light buffer round the sonar, in parallel; every candidate crossing is decided by the
+    exact test of docs/model.md §10. Branches are tested only with ``branches_block``."""
+    sonar, pose = _check(sonar, pose)
+    if len(pose) != 1:
+        raise ValueError(f"leaf_sights takes one pose; got {len(pose)} (index it: poses[i])")
+    if not isinstance(branches_block, bool):
+        raise TypeError(f"branches_block must be True or False, got {branches_block!r}")
+    sc = as_scene(scene)
+    ids, crossings, blocked = _core.leaf_sights(
+        sc._core, sonar._core, pose.positions, pose.forward, pose.up, pose.left, branches_block
+    )
+    return LeafSights(ids, crossings.astype(np.int64), blocked)
+
+
+__all__ = [
+    "DEFAULT_METHOD",
+    "DEFAULT_TOL",
+    "METHODS",
+    "Echoes",
+    "LeafSights",
+    "leaf_sights",
+    "lobe_members",
+    "simulate",
+]

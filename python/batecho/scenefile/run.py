@@ -35,7 +35,7 @@ __all__ = [
 
 def sonar_params(sonar: Sonar) -> dict[str, Any]:
     """A :class:`batecho.Sonar`'s parameters as a dict that is also a valid ``[sonar]`` table
-    (None values left out; ``beam``/``receiver``/``absorption`` as sub-tables)."""
+    (None values left out; ``beam``/``receiver``/``absorption``/``shading`` as sub-tables)."""
     out: dict[str, Any] = {}
     for f in dataclasses.fields(sonar):
         if f.name.startswith("_"):
@@ -43,7 +43,7 @@ def sonar_params(sonar: Sonar) -> dict[str, Any]:
         v = getattr(sonar, f.name)
         if v is None:
             continue
-        if f.name in ("beam", "receiver", "absorption"):
+        if f.name in ("beam", "receiver", "absorption", "shading"):
             sub = {
                 g.name: list(getattr(v, g.name))
                 if isinstance(getattr(v, g.name), tuple)
