@@ -3,10 +3,10 @@
 a cycle.
 
 A top-level module is a folder of `rust/src` (`math`, `physics`, ...) or a file beside
-`lib.rs` (`simulate`, `error`), with the folder of its submodules if it has one. An edge `a -> b` means some file under `a` names `crate::b`
-in code (comments and string literals are ignored; `#[cfg(test)]` code counts too, so tests
-keep to the same order). `lib.rs` itself (the module list and the unit tests' helpers) is
-not a node.
+`lib.rs` (`simulate`, `error`), with the folder of its submodules if it has one. An edge
+`a -> b` means some file under `a` names `crate::b` in code (comments and string literals are
+ignored; `#[cfg(test)]` code counts too, so tests keep to the same order). `lib.rs` itself
+(the module list and the unit tests' helpers) is not a node.
 
 Usage: python3 tools/module_deps.py [--quiet] [path/to/rust/src]
 Exit status 0 when the graph has no cycle (the modules are printed in dependency order,

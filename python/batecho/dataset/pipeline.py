@@ -167,6 +167,7 @@ def draw_poses(
 
 def _lobe_labels(built: BuiltScene, sonar: Sonar, poses: Poses) -> dict[str, np.ndarray]:
     leaves = built.scene.leaves
+    assert leaves is not None  # (the dataset's scenes always hold leaves)
     p = len(poses)
     nearest = np.full(p, np.nan)
     mean_radius = np.full(p, np.nan)

@@ -148,6 +148,7 @@ def _forest(spec: DatasetSpec, rng: np.random.Generator) -> BuiltScene:
             "scene.forest.intensity_scale or enlarge scene.forest.window_m"
         )
     leaves = forest.scene().leaves
+    assert leaves is not None  # (a forest's scene always holds its leaves)
     labels: dict[str, float] = {
         "intensity_scale": scale,
         "scale_sd": scale_sd,

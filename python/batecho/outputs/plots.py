@@ -254,7 +254,7 @@ def overlay_wood_echoes(
             edges[col + 1] - w,
             colors=WOOD_ECHO_COLOR,
             linewidths=1.1,
-            alpha=float(np.clip(1.0 + _db(peak_i, top) / 60.0, 0.3, 1.0)),
+            alpha=float(np.clip(1.0 + _db(np.asarray(peak_i), top) / 60.0, 0.3, 1.0)),
         )
     ax.plot([], [], color=WOOD_ECHO_COLOR, lw=1.1, label="wood echoes")
     ax.legend(loc="upper right", fontsize=7)

@@ -200,7 +200,7 @@ impl Buffer {
     #[inline(always)]
     fn face_slopes(&self, v: V3, rho: f64, f: usize) -> Option<((f64, f64), (f64, f64))> {
         let a = f / 2;
-        let z = if f % 2 == 0 { v[a] } else { -v[a] };
+        let z = if f.is_multiple_of(2) { v[a] } else { -v[a] };
         if !(z > rho) {
             return None;
         }
