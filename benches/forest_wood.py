@@ -3,7 +3,7 @@ forest.
 
 Forest: `Forest.paper_example(seed, variants=3)` with its trees' woody skeletons
 (`forest.scene(branches=True)`); the paper's kinematic circle (15 pulses, 6.2 m around the
-forest's mean position, 5 m up, facing the centre); `Sonar(beamwidth_deg=30, too_close="skip")`;
+forest's mean position widened to clear every crown by 0.5 m, 5 m up, facing the centre); `Sonar(beamwidth_deg=30, too_close="skip")`;
 fast method, tol 1e-6. Three runs of the same pulses: leaves alone (the paper's model), leaves
 and wood, and leaves and wood with `Shading()` (tau 0.6, branches block). Prints the wood's share
 of the echo energy (per flight and per pulse), the leaves' energy lost to shading, the relative
@@ -44,7 +44,8 @@ def main() -> None:
     wooded = forest.scene(branches=True)
     assert wooded.branches is not None
     cx, cy = forest.mean_position
-    poses = batecho.circle((cx, cy), radius=6.2, altitude=5.0, n_points=15, heading="center")
+    radius = forest.clear_circle_radius((cx, cy), 6.2, altitude=5.0)
+    poses = batecho.circle((cx, cy), radius=radius, altitude=5.0, n_points=15, heading="center")
     sonar = batecho.Sonar(beamwidth_deg=30, too_close="skip")
     runs = {}
     for name, scene, so in (

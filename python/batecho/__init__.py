@@ -15,12 +15,14 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._core import __version__
+from ._resources import memory_limit, set_memory_limit
 from .echoes.simulate import Echoes, LeafSights, leaf_sights, lobe_members, simulate
 from .flight.kinematic import circle, figure_eight, line_to
 from .flight.mount import SonarMount
 from .flight.poses import Poses, look_at
 from .flight.record import Flight
 from .flight.vehicle import Quadrotor
+from .forest.clearance import DEFAULT_MIN_CLEARANCE_M, ClearanceWarning
 from .forest.forest import Forest
 from .forest.ipp import (
     PAPER_WINDOW,
@@ -85,6 +87,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "DEFAULT_MIN_CLEARANCE_M",
     "PAPER_WINDOW",
     "REFERENCE_TREE",
     "Atmosphere",
@@ -92,6 +95,7 @@ __all__ = [
     "BranchLayout",
     "Branches",
     "Branching",
+    "ClearanceWarning",
     "Echoes",
     "Flight",
     "Forest",
@@ -128,12 +132,14 @@ __all__ = [
     "load_tree",
     "lobe_members",
     "look_at",
+    "memory_limit",
     "paper",
     "paper_intensity",
     "plotting",
     "run_scenefile",
     "sample_ipp",
     "scenefile",
+    "set_memory_limit",
     "simulate",
     "trajectories",
     "treeplots",

@@ -4,6 +4,7 @@
 
 pub mod scatter;
 
+use crate::budget;
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::spectrum::band_spectrum;
 use crate::error::{invalid, Result};
@@ -48,6 +49,26 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// A pose's echoes must be finite: amplitudes beyond f64's range (an enormous gain, beam
+/// amplitude or leaf) are refused, never returned as inf or NaN.
+fn check_finite(pose: usize, re: &[f64], im: &[f64], y: &[f64], sonar: &Sonar) -> Result<()> {
+    // (no early exit: the fold vectorises, and a pose's arrays are short)
+    let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+    if finite(re) && finite(im) && finite(y) {
+        return Ok(());
+    }
+    let p = &sonar.params;
+    invalid(format!(
+        "the echoes of pose {pose} overflow f64 (inf or NaN): the amplitude g G / r^2 times the \
+         leaf factor is beyond 1.8e308 (gain = {:e}, beam amplitudes {:e} and {:e}, spreading {}); \
+         lower the gain or the beam amplitude, or check the leaves' radii",
+        p.gain,
+        p.emitter.amplitude,
+        sonar.receiver().amplitude,
+        p.spreading
+    ))
 }
 
 /// The range (m) of the farthest counting leaf or branch piece of each pose (0 where none
@@ -122,6 +143,23 @@ pub fn simulate(
     scatter::check_branch_sizes(scene, sonar)?;
     // With leaves and wood, each part's spectrum gets half of `tol` (docs/model.md §9).
     let share = scatter::tol_share(scene);
+    let m = sonar.n_bins();
+    let n = sonar.params.n_samples;
+    budget::check(
+        budget::echoes_bytes(poses.len(), m, n, with_impulse),
+        || {
+            format!(
+                "simulate of {} poses with n_samples = {n} ({m} band bins{})",
+                poses.len(),
+                if with_impulse {
+                    ", impulses included"
+                } else {
+                    ""
+                }
+            )
+        },
+        "simulate the poses in pieces (poses[i:j]) and join the results",
+    )?;
     let plan = match method {
         Method::Exact => None,
         Method::Fast { tol } => {
@@ -142,8 +180,6 @@ pub fn simulate(
             }
         }
     };
-    let m = sonar.n_bins();
-    let n = sonar.params.n_samples;
     let plain = scatter::is_plain(scene, sonar);
     let per_pose: Vec<(scatter::PoseEcho, Vec<f64>)> = poses
         .par_iter()
@@ -159,24 +195,27 @@ pub fn simulate(
             };
             let mut y = Vec::new();
             if with_impulse {
-                y = vec![0.0; n];
+                y = budget::filled(n, 0.0, "the impulse response")?;
                 impulse_from_band(n, sonar.k0, &echo.re, &echo.im, &mut y);
             }
+            check_finite(i, &echo.re, &echo.im, &y, sonar)?;
             Ok((echo, y))
         })
         .collect::<Result<Vec<_>>>()?;
+    let what = "simulate's output";
+    let p = poses.len();
+    let wood = !scene.branches.is_empty();
     let mut out = Echoes {
         n_bins: m,
-        spectrum_re: Vec::with_capacity(poses.len() * m),
-        spectrum_im: Vec::with_capacity(poses.len() * m),
-        impulse: Vec::with_capacity(if with_impulse { poses.len() * n } else { 0 }),
-        n_leaves: Vec::with_capacity(poses.len()),
-        wood_re: Vec::new(),
-        wood_im: Vec::new(),
-        n_pieces: Vec::with_capacity(poses.len()),
-        n_shaded: Vec::with_capacity(poses.len()),
+        spectrum_re: budget::with_capacity(p.saturating_mul(m), what)?,
+        spectrum_im: budget::with_capacity(p.saturating_mul(m), what)?,
+        impulse: budget::with_capacity(if with_impulse { p.saturating_mul(n) } else { 0 }, what)?,
+        n_leaves: budget::with_capacity(p, what)?,
+        wood_re: budget::with_capacity(if wood { p.saturating_mul(m) } else { 0 }, what)?,
+        wood_im: budget::with_capacity(if wood { p.saturating_mul(m) } else { 0 }, what)?,
+        n_pieces: budget::with_capacity(p, what)?,
+        n_shaded: budget::with_capacity(p, what)?,
     };
-    let wood = !scene.branches.is_empty();
     for (e, y) in per_pose {
         out.spectrum_re.extend_from_slice(&e.re);
         out.spectrum_im.extend_from_slice(&e.im);

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
@@ -44,6 +45,16 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
     if v < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return v
+
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 0 <= v < 2**128:
+        raise argparse.ArgumentTypeError(f"a seed is an integer in [0, 2^128), got {text!r}")
     return v
 
 
@@ -122,14 +133,15 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         "demo",
         help="simulate a small forest and a flight; write plots and data",
         description="Ming's canonical leaf box (canonical_*.png/.npz), then a few trees from "
-        "the paper's IPP and a Crazyflie flying a 6.2 m circle around them at 5 m with "
-        "its sonar looking at the centre: scene_3d.png, impulses.png, echo_image.png, "
-        "spectrogram.png and echoes.npz. The scene file it ran is written as demo.toml.",
+        "the paper's IPP and a Crazyflie circling them at 5 m (6.2 m out, or wider to keep "
+        "0.5 m from every crown) with its sonar looking at the centre: scene_3d.png, "
+        "impulses.png, echo_image.png, spectrogram.png and echoes.npz. The scene file it ran is "
+        "written as demo.toml.",
         epilog="example:\n  batecho demo --out demo-out --trees 2 --beamwidth 20",
         formatter_class=fmt,
     )
     d.add_argument("--out", default="demo-out", help="output folder (default: demo-out)")
-    d.add_argument("--seed", type=int, default=2017, help="random seed (default: 2017)")
+    d.add_argument("--seed", type=_seed, default=2017, help="random seed (default: 2017)")
     d.add_argument("--trees", type=_positive_int, default=3, help="number of trees (default 3)")
     d.add_argument(
         "--beamwidth", type=_beamwidth, default=30.0, help="sonar beamwidth, deg (default 30)"
@@ -163,7 +175,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     )
     s.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     s.add_argument("--out", help="output folder (default: ./SCENE-out, named after the file)")
-    s.add_argument("--seed", type=int, help="override the file's seed")
+    s.add_argument("--seed", type=_seed, help="override the file's seed")
     s.add_argument("--no-plots", action="store_true", help="write the NPZ only")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     s.set_defaults(func=run_simulate)
@@ -182,13 +194,14 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         help="write Figures 5-10 (in spirit) as PNG",
         description="One tree with a pose whose lobe holds no leaf (its echo is exactly zero, "
         "Fig. 5) and one facing the crown (Figs. 6-7, beams of 10, 20, 50 deg); two trees "
-        "with the 6.2 m circle at 5 m and 4 sample points (Figs. 8-9); two and three trees "
+        "with the circle at 5 m (the paper's 6.2 m, widened where needed to keep 0.5 m from "
+        "every crown) and 4 sample points (Figs. 8-9); two and three trees "
         "with 15 points (Fig. 10); echo images around the circle; a straight run toward a "
         "tree. Also paper_figures.npz with the data behind them.",
         formatter_class=fmt,
     )
     pf.add_argument("--out", default="paper-figures", help="output folder")
-    pf.add_argument("--seed", type=int, default=2021, help="random seed (default 2021)")
+    pf.add_argument("--seed", type=_seed, default=2021, help="random seed (default 2021)")
     pf.add_argument(
         "--echo-pulses",
         type=_positive_int,
@@ -208,8 +221,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     pt = psub.add_parser(
         "table1",
         help="time a whole circle for 1-15 pulses and 1-5 trees, beside the paper's Table 1",
-        description="For T trees from the paper's IPP (conditioned on T), a circle of 6.2 m at "
-        "5 m around their mean position and N pulses at equal angles, time the impulse "
+        description="For T trees from the paper's IPP (conditioned on T), a circle at 5 m "
+        "around their mean position (the paper's 6.2 m, widened where needed to keep 0.5 m "
+        "from every crown) and N pulses at equal angles, time the impulse "
         "computation of the whole circle (one batecho.simulate call) and count the leaves. "
         "Prints a Markdown table beside the paper's MATLAB times, with the settings to rerun.",
         epilog="example:\n  batecho paper table1 --points 1,5 --trees 1,2 --repeats 2",
@@ -239,7 +253,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         default=3,
         help="simulate calls per cell, the fastest kept (default 3)",
     )
-    pt.add_argument("--seed", type=int, default=2021, help="random seed (default 2021)")
+    pt.add_argument("--seed", type=_seed, default=2021, help="random seed (default 2021)")
     pt.add_argument(
         "--beamwidth",
         type=_beamwidth,
@@ -283,6 +297,20 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return p
 
 
+def _warning_printer(name: str, fallback: Callable[..., None]) -> Callable[..., None]:
+    """``warnings.showwarning`` that prints batecho's own warnings as one line,
+    ``batecho NAME: warning: ...``, and others as Python does."""
+    from ..forest.clearance import ClearanceWarning
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, ClearanceWarning):
+            print(f"batecho {name}: warning: {message}", file=file or sys.stderr)
+        else:
+            fallback(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 2 user error)."""
     args_list = list(sys.argv[1:] if argv is None else argv)
@@ -295,7 +323,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     name = args.command + (f" {args.paper_command}" if args.command == "paper" else "")
     try:
-        return int(args.func(args) or 0)
+        from ..forest.clearance import ClearanceWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", ClearanceWarning)  # a run's warnings are its news
+            warnings.showwarning = _warning_printer(name, warnings.showwarning)
+            return int(args.func(args) or 0)
     except (
         UserError,
         ScenefileError,
@@ -305,6 +338,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         IsADirectoryError,
         PermissionError,
         RuntimeError,
+        MemoryError,
     ) as exc:
         print(f"batecho {name}: error: {exc}", file=sys.stderr)
         return 2

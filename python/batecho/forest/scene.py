@@ -3,11 +3,12 @@ branches as cylinder segments."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 
 from .. import _core
+from .._validate import vectors
 from ..trees.branches import Branches
 from ..trees.leaves import Leaves, as_leaves
 
@@ -70,6 +71,27 @@ class Scene:
 
     def __len__(self) -> int:
         return self.n_leaves
+
+    @overload
+    def clearance(self, points: Any, return_index: Literal[False] = False) -> np.ndarray: ...
+    @overload
+    def clearance(
+        self, points: Any, return_index: Literal[True]
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+    def clearance(self, points: Any, return_index: bool = False) -> Any:
+        """Distance (m) from each point to the nearest leaf disk or branch cylinder.
+
+        ``points``: (n, 3) or one (3,) point, m (finite). Returns (n,) float64 distances, the
+        exact point-to-disk and point-to-capped-cylinder distances (docs/model.md §6)
+        minimised over the leaves and branches on their BVHs, points in parallel (Rust, GIL
+        released); with ``return_index=True`` also the (n,) int64 index of that leaf (the
+        smallest among equally near leaves), or ``-1 - j`` for branch ``j`` (a leaf first at
+        equal distance; :func:`~batecho.forest.clearance.clearance_part` names either). Zero for a point on a leaf or
+        in a branch.
+        """
+        pts = vectors(points, "points")
+        dist, idx = self._core.clearance(pts)
+        return (dist, idx) if return_index else dist
 
     @property
     def build_time_s(self) -> float:

@@ -3,11 +3,16 @@
 //! shared end point (the joints of one skeleton).
 use crate::error::{invalid, Result};
 use crate::math::vec3::{dot, V3};
+use crate::scene::bvh::segment_box;
 use crate::scene::leaves::MAX_COORDINATE;
+use obvhs::bvh2::builder::build_bvh2;
+use obvhs::bvh2::Bvh2;
+use obvhs::BvhBuildParams;
 use std::collections::HashMap;
+use std::time::Duration;
 
 /// Cylinder segments in the caller's order (`i` is the caller's index everywhere).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Default)]
 pub struct Branches {
     pub starts: Vec<V3>,
     pub ends: Vec<V3>,
@@ -24,6 +29,9 @@ pub struct Branches {
     pub joined_at: Vec<u32>,
     /// The smallest radius and its first segment.
     pub smallest: (usize, f64),
+    /// A BVH over the segments' boxes (caller's order: `primitive_indices` are segment
+    /// indices), for clearance.
+    pub bvh: Bvh2,
 }
 
 impl Branches {
@@ -79,6 +87,18 @@ impl Branches {
             bound_radii.push(0.5 * l + radii[i]);
         }
         let (joined, joined_at) = joints(&starts, &ends);
+        let boxes: Vec<_> = (0..n)
+            .map(|i| segment_box(starts[i], ends[i], radii[i]))
+            .collect();
+        let bvh = if n == 0 {
+            Bvh2::default()
+        } else {
+            build_bvh2(
+                &boxes,
+                BvhBuildParams::fast_build(),
+                &mut Duration::default(),
+            )
+        };
         let smallest = radii
             .iter()
             .copied()
@@ -98,6 +118,7 @@ impl Branches {
             joined,
             joined_at,
             smallest,
+            bvh,
         })
     }
 
