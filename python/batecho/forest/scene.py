@@ -86,8 +86,8 @@ class Scene:
         minimised over the leaves and branches on their BVHs, points in parallel (Rust, GIL
         released); with ``return_index=True`` also the (n,) int64 index of that leaf (the
         smallest among equally near leaves), or ``-1 - j`` for branch ``j`` (a leaf first at
-        equal distance; :func:`~batecho.forest.clearance.clearance_part` names either). Zero for a point on a leaf or
-        in a branch.
+        equal distance; :func:`~batecho.forest.clearance.clearance_part` names either). Zero
+        for a point on a leaf or in a branch.
         """
         pts = vectors(points, "points")
         dist, idx = self._core.clearance(pts)
