@@ -4,11 +4,11 @@ forest.
 Forest: `Forest.paper_example(seed, variants=3)` with its trees' woody skeletons
 (`forest.scene(branches=True)`); the paper's kinematic circle (15 pulses, 6.2 m around the
 forest's mean position widened to clear every crown by 0.5 m, 5 m up, facing the centre);
-`Sonar(beamwidth_deg=30, too_close="skip")`; fast method, tol 1e-6. Three runs of the same pulses: leaves alone (the paper's model), leaves
-and wood, and leaves and wood with `Shading()` (tau 0.6, branches block). Prints the wood's share
-of the echo energy (per flight and per pulse), the leaves' energy lost to shading, the relative
-change of the echo that shading makes, and the times; writes the three echo images and the
-scene to OUT.
+`Sonar(beamwidth_deg=30, too_close="skip")`; fast method, tol 1e-6. Three runs of the same
+pulses: leaves alone (the paper's model), leaves and wood, and leaves and wood with `Shading()`
+(tau 0.6, branches block). Prints the wood's share of the echo energy (per flight and per
+pulse), the leaves' energy lost to shading, the relative change of the echo that shading
+makes, and the times; writes the three echo images and the scene to OUT.
 
     python benches/forest_wood.py [--seed 1] [--out forest-wood]
 """
