@@ -34,6 +34,17 @@ pub struct Branches {
     pub bvh: Bvh2,
 }
 
+impl std::fmt::Debug for Branches {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // (the BVH is derived from the segments)
+        f.debug_struct("Branches")
+            .field("starts", &self.starts)
+            .field("ends", &self.ends)
+            .field("radii", &self.radii)
+            .finish_non_exhaustive()
+    }
+}
+
 impl Branches {
     /// Validate and prepare segments: equal lengths, finite coordinates within
     /// [`MAX_COORDINATE`], finite radii > 0, distinct end points. Messages name the first

@@ -236,6 +236,55 @@ mod tests {
     }
 
     #[test]
+    fn with_branches_the_walk_finds_the_nearest_of_a_test_of_every_leaf_and_branch() {
+        let (_, c, n, r) = scene(800, 5);
+        let mut u = uniforms(11);
+        let k = 300;
+        let starts: Vec<V3> = (0..k)
+            .map(|_| [4.0 * u() - 2.0, 4.0 * u() - 2.0, 4.0 * u() - 2.0])
+            .collect();
+        let ends: Vec<V3> = starts
+            .iter()
+            .map(|a| [a[0] + u() - 0.5, a[1] + u() - 0.5, a[2] + 2.0 * u()])
+            .collect();
+        let radii: Vec<f64> = (0..k).map(|_| 0.005 + 0.1 * u()).collect();
+        let br = crate::scene::Branches::new(starts.clone(), ends, radii.clone()).unwrap();
+        let s = Scene::with_branches(c.clone(), n.clone(), r.clone(), br.clone()).unwrap();
+        let mut pts: Vec<V3> = (0..400)
+            .map(|_| [6.0 * u() - 3.0, 6.0 * u() - 3.0, 6.0 * u() - 3.0])
+            .collect();
+        pts.push(starts[7]); // on a branch's end cap centre
+        let got = s.clearance(&pts).unwrap();
+        for (p, g) in pts.iter().zip(&got) {
+            let leaf = brute(*p, &c, &n, &r);
+            let mut wood = Nearest {
+                distance: f64::INFINITY,
+                index: 0,
+                branch: true,
+            };
+            for j in 0..k {
+                let d =
+                    point_cylinder_distance(*p, br.starts[j], br.axes[j], br.lengths[j], radii[j]);
+                if d < wood.distance {
+                    wood = Nearest {
+                        distance: d,
+                        index: j,
+                        branch: true,
+                    };
+                }
+            }
+            let want = if wood.distance < leaf.distance {
+                wood
+            } else {
+                leaf
+            };
+            assert_eq!(*g, want, "point {p:?}");
+        }
+        assert_eq!(got[400].distance, 0.0);
+        assert!(got.iter().any(|g| g.branch) && got.iter().any(|g| !g.branch));
+    }
+
+    #[test]
     fn a_non_finite_point_is_refused_by_index() {
         let (s, ..) = scene(10, 1);
         let e = s.clearance(&[[0.0; 3], [f64::NAN, 0.0, 0.0]]).unwrap_err();
