@@ -262,9 +262,8 @@ mod tests {
                 index: 0,
                 branch: true,
             };
-            for j in 0..k {
-                let d =
-                    point_cylinder_distance(*p, br.starts[j], br.axes[j], br.lengths[j], radii[j]);
+            for (j, &rj) in radii.iter().enumerate() {
+                let d = point_cylinder_distance(*p, br.starts[j], br.axes[j], br.lengths[j], rj);
                 if d < wood.distance {
                     wood = Nearest {
                         distance: d,
