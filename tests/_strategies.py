@@ -72,7 +72,7 @@ def boundary_range(sonar: Sonar, pose: Poses, az: float, el: float) -> float:
     """The reference's detectable reach in the direction (az, el) of pose 0."""
     p = frame_points(pose, [1.0], [az], [el])
     lv = Leaves(p, [[0.0, 0.0, 1.0]], [0.02])
-    _r, _, _, G = reference._view(lv, sonar, pose, 0)
+    _r, _, _, G = reference._view(lv.centers, sonar, pose, 0)
     K = (
         sonar.r0_m
         * sonar.r0_m

@@ -265,3 +265,89 @@ def test_a_bad_margin_is_refused(bad):
     leaves, sonar, poses = near_leaf_case()
     with pytest.raises((ValueError, TypeError), match="min_clearance_m"):
         batecho.simulate(leaves, sonar, poses, min_clearance_m=bad)
+
+
+# ------------------------------------------------------------------------------- branches
+
+
+@st.composite
+def wooded_scenes_and_points(draw):
+    """Up to 60 branch segments (some joined end to end, radii 5 mm to 30 cm), with or
+    without leaves, and points on their sides, on their axes (inside), on their caps, on
+    their rims, beyond their ends on the axis line, and anywhere."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    k = draw(st.integers(1, 60))
+    scale = draw(st.sampled_from([0.5, 5.0, 50.0]))
+    s = rng.uniform(-scale, scale, (k, 3))
+    e = s + rng.normal(size=(k, 3)) * rng.uniform(0.05, scale, (k, 1))
+    s[1::2] = e[:-1:2]  # joined end to end
+    if draw(st.booleans()):
+        e[: k // 2] = s[: k // 2] + [0.0, 0.0, 2.0]  # upright: exact axis-aligned axes
+    r = np.exp(rng.uniform(np.log(5e-3), np.log(0.3), k))
+    branches = batecho.Branches(s, e, r)
+    leaves = None
+    if draw(st.booleans()):
+        n = draw(st.integers(1, 200))
+        leaves = batecho.Leaves(
+            rng.uniform(-scale, scale, (n, 3)), rng.normal(size=(n, 3)), rng.uniform(0.01, 0.1, n)
+        )
+    st_, en, r = branches.starts, branches.ends, branches.radii
+    d = en - st_
+    u = unit_rows(d)
+    m = 40
+    j = rng.integers(0, k, m)
+    t = rng.uniform(0.0, 1.0, m)[:, None]
+    side = in_plane(u[j], rng)
+    axis_pt = st_[j] + t * d[j]
+    pts = np.concatenate(
+        [
+            axis_pt + r[j, None] * side,  # on the side
+            axis_pt,  # on the axis, inside
+            en[j] + t * r[j, None] * side,  # on the end cap
+            en[j] + r[j, None] * side,  # on the rim
+            en[j] + (0.1 + t) * d[j],  # beyond the end, on the axis line
+            st_[j] - t * d[j] + 2.0 * r[j, None] * side,  # beyond the start, off the axis
+            rng.uniform(-2 * scale, 2 * scale, (m, 3)),  # anywhere
+        ]
+    )
+    return batecho.Scene(leaves, branches=branches), pts
+
+
+@given(wooded_scenes_and_points())
+def test_with_branches_the_clearance_is_the_reference_brute_force_to_the_bit(case):
+    scene, pts = case
+    got, got_i = scene.clearance(pts, return_index=True)
+    want, want_i = reference.clearance(scene, pts)
+    assert got.tobytes() == want.tobytes()
+    np.testing.assert_array_equal(got_i, want_i)
+
+
+def test_the_distance_to_a_branch_is_to_its_side_its_cap_or_its_rim_and_zero_inside():
+    trunk = batecho.Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 4.0]], [0.25])
+    scene = batecho.Scene(None, branches=trunk)
+    pts = [[1.0, 0.0, 2.0], [0.1, 0.0, 2.0], [0.0, 0.1, 5.0], [1.25, 0.0, -3.0], [0.0, 0.0, 4.0]]
+    d, i = scene.clearance(pts, return_index=True)
+    # the side, inside, beyond the cap on the axis, off the rim (3 m down, 1 m out), on the cap
+    np.testing.assert_allclose(d, [0.75, 0.0, 1.0, np.sqrt(10.0), 0.0], atol=1e-15)
+    assert i.tolist() == [-1] * 5  # branch 0
+
+
+def test_the_nearer_of_a_leaf_and_a_branch_is_named():
+    leaves = batecho.Leaves([[2.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.05])
+    trunk = batecho.Branches(
+        [[-1.0, 0.0, -2.0], [0.0, 3.0, -2.0]], [[-1.0, 0.0, 2.0], [0.0, 3.0, 2.0]], [0.2, 0.2]
+    )
+    scene = batecho.Scene(leaves, branches=trunk)
+    d, i = scene.clearance([[0.0, 0.0, 0.0], [1.5, 0.0, 0.0], [0.0, 2.5, 0.0]], return_index=True)
+    np.testing.assert_allclose(d, [0.8, 0.5, 0.3], atol=1e-12)
+    assert i.tolist() == [-1, 0, -2]
+
+
+def test_simulate_warns_of_a_pose_close_to_a_trunk_naming_the_branch():
+    leaves = batecho.Leaves([[3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.03])
+    trunk = batecho.Branches([[0.5, -0.5, -2.0]], [[0.5, -0.5, 2.0]], [0.3])
+    scene = batecho.Scene(leaves, branches=trunk)
+    pose = batecho.Poses([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]])
+    with pytest.warns(ClearanceWarning, match=r"pose 0 .* from branch 0"):
+        batecho.simulate(scene, batecho.Sonar(too_close="skip"), pose)

@@ -488,3 +488,56 @@ def test_module_entry_point_runs_the_cli(tmp_path):
             timeout=120,
         )
         assert r.returncode == 0, r.stderr
+
+
+# ------------------------------------------------------------------ wood and shading
+
+
+def wood_spec(**changes) -> DatasetSpec:
+    """A forest with its branches, shading sonar, 3 samples of 2 pulses."""
+    base = {
+        "n_samples": 3,
+        "pulses_per_sample": 2,
+        "output.chunk_size": 3,
+        "scene.forest.branches": True,
+        "sonar.shading": True,
+        "sonar.leaf_transmission": 0.5,
+    }
+    base.update(changes)
+    return forest_spec(**base)
+
+
+def test_a_spec_without_wood_or_shading_keeps_its_canonical_text_and_layout():
+    spec = tiny_spec()
+    assert "shading" not in spec.to_toml() and "branches" not in spec.to_toml()
+    names = [v.name for v in batecho.dataset.store.schema(spec)]
+    assert "n_shaded" not in names and "nearest_wood_m" not in names
+    assert "shading = false" in DatasetSpec().to_toml(full=True)
+    assert DatasetSpec.from_toml_string(wood_spec().to_toml()) == wood_spec()
+
+
+def test_branches_need_a_forest_scene():
+    with pytest.raises(SpecError, match="scene.forest.branches"):
+        tiny_spec(**{"scene.forest.branches": True})
+
+
+def test_wood_and_shading_labels_agree_with_simulate_and_the_geometry(tmp_path):
+    spec = wood_spec()
+    generate(spec, tmp_path / "wood.zarr", workers=1, progress=False)
+    verify(tmp_path / "wood.zarr")
+    ds = load(tmp_path / "wood.zarr")
+    for i in range(spec.n_samples):
+        s = draw_sample(spec, i)
+        assert s.sonar.shading == batecho.Shading(0.5, True)
+        wood = s.scene.scene.branches
+        assert wood is not None and len(wood) > 1000
+        echoes = batecho.simulate(s.scene.scene, s.sonar, s.poses)
+        np.testing.assert_array_equal(ds["n_shaded"].values[i], echoes.n_shaded)
+        np.testing.assert_array_equal(ds["n_pieces"].values[i], echoes.n_pieces)
+        for k in range(spec.pulses_per_sample):
+            p = s.poses.positions[k]
+            d = np.linalg.norm(wood.starts - p, axis=1).min()
+            assert 0.0 < ds["nearest_wood_m"].values[i, k] <= d
+    assert (ds["n_shaded"].values <= ds["n_leaves"].values).all()
+    assert ds["n_shaded"].values.sum() > 0
+    assert ds["nearest_wood_m"].attrs["units"] == "m"

@@ -265,3 +265,27 @@ def test_plot_forest_3d_returns_a_figure(paper_forest, tmp_path):
     fig.savefig(tmp_path / "forest3d.png", dpi=50)
     plt.close(fig)
     assert (tmp_path / "forest3d.png").stat().st_size > 1000
+
+
+def test_scene_with_branches_places_every_trees_skeleton_with_its_tree():
+    forest = batecho.Forest.paper_example(np.random.default_rng(4), variants=2)
+    wood = forest.branches
+    assert isinstance(wood, batecho.Branches)
+    assert len(wood) == sum(len(forest.placed(i).branches) for i in range(forest.n_trees))
+    first = forest.placed(0).branches
+    np.testing.assert_allclose(wood.starts[: len(first)], first.starts, atol=1e-12)
+    np.testing.assert_allclose(wood.radii[: len(first)], first.radii)
+    scene = forest.scene(branches=True)
+    assert scene.branches is wood and scene.n_leaves == forest.n_leaves
+    assert forest.scene().branches is None  # the paper's model: leaves alone
+    assert forest.scene(branches=True) is scene
+
+
+def test_scene_with_branches_refuses_a_forest_without_skeletons():
+    tree = batecho.grow_lsystem_tree(0).with_branches(None)
+    forest = batecho.Forest.from_positions([[0.0, 0.0]], 0, tree=tree)
+    assert forest.branches is None
+    with pytest.raises(ValueError, match="no tree of this forest has a woody skeleton"):
+        forest.scene(branches=True)
+    with pytest.raises(TypeError, match="branches must be True or False"):
+        forest.scene(branches="yes")

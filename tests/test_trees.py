@@ -198,7 +198,7 @@ def test_grow_tree_bark_faces_index_vertices_and_groups_are_named(tree):
 
 
 def test_grow_tree_branches_start_at_lsystem_points_on_the_trunk(tree):
-    lay = tree.branches
+    lay = tree.layout
     assert len(lay) == len(tree.branch_names)
     for axis, origin in zip(lay.axes, lay.origins, strict=True):
         assert np.allclose(axis[0], origin)
@@ -216,7 +216,7 @@ def _kabsch(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
 
 def test_zero_randomisation_moves_each_reference_branch_rigidly(zero_tree):
     ref = load_reference()
-    lay = zero_tree.branches
+    lay = zero_tree.layout
     for i in range(len(lay)):
         tpl = ref.branches[lay.reference_index[i]]
         grown = zero_tree.leaves.centers[zero_tree.leaf_branch == i] - lay.origins[i]
@@ -232,7 +232,7 @@ def test_zero_randomisation_keeps_each_branch_upper_side_up(zero_tree):
     # the transport turns the azimuth, then the polar angle: heights above the chord, measured
     # in the vertical plane through it, are kept (no roll about the branch)
     ref = load_reference()
-    lay = zero_tree.branches
+    lay = zero_tree.layout
 
     def up_of(d):
         u = np.array([0.0, 0.0, 1.0]) - d[2] * d
@@ -247,7 +247,7 @@ def test_zero_randomisation_keeps_each_branch_upper_side_up(zero_tree):
 
 def test_length_scale_moves_each_tip_that_many_times_farther_along_the_axis(zero_tree):
     longer = grow_tree(np.random.default_rng(5), **ZERO, length_scale=1.2)
-    a, b = zero_tree.branches, longer.branches
+    a, b = zero_tree.layout, longer.layout
     assert np.allclose(b.origins, a.origins)
     assert np.allclose(b.tips - b.origins, 1.2 * (a.tips - a.origins), atol=1e-12)
     assert np.allclose(b.length_scales, 1.2)
@@ -264,7 +264,7 @@ def test_length_scale_keeps_sub_branches_their_size(zero_tree):
 
 def test_droop_bends_each_axis_down_by_the_given_tip_angle_keeping_its_length(zero_tree):
     bent = grow_tree(np.random.default_rng(5), **{**ZERO, "droop_deg": 30.0})
-    for a0, a1 in zip(zero_tree.branches.axes, bent.branches.axes, strict=True):
+    for a0, a1 in zip(zero_tree.layout.axes, bent.layout.axes, strict=True):
         l0 = np.linalg.norm(np.diff(a0, axis=0), axis=1)
         l1 = np.linalg.norm(np.diff(a1, axis=0), axis=1)
         assert l1.sum() == pytest.approx(l0.sum(), rel=1e-3)  # arcs for segments: chords
@@ -292,7 +292,7 @@ def test_bend_turns_bark_and_leaves_with_the_axis_keeping_units_rigid(zero_tree)
 
 def test_slide_moves_sub_branches_rigidly_leaving_the_axes(zero_tree):
     slid = grow_tree(np.random.default_rng(5), **{**ZERO, "slide_sd": 0.2})
-    for a0, a1 in zip(zero_tree.branches.axes, slid.branches.axes, strict=True):
+    for a0, a1 in zip(zero_tree.layout.axes, slid.layout.axes, strict=True):
         assert np.allclose(a0, a1)
     moved = 0
     clusters = np.unique(zero_tree.leaf_cluster)
@@ -317,7 +317,7 @@ def test_leaves_stay_close_to_their_own_branch_bark():
 
 def test_random_branch_choice_uses_reference_branches_at_random():
     t = grow_tree(np.random.default_rng(1), branch_choice="random", n_branches=30)
-    assert len(np.unique(t.branches.reference_index)) > 3
+    assert len(np.unique(t.layout.reference_index)) > 3
 
 
 def test_grow_tree_accepts_a_user_obj_reference(tmp_path, lsys_tree):
@@ -325,17 +325,19 @@ def test_grow_tree_accepts_a_user_obj_reference(tmp_path, lsys_tree):
     ref = load_reference(path)
     assert ref.structure == "derived"
     assert len(ref.branches) == len(lsys_tree.branch_names)
-    t = grow_tree(np.random.default_rng(0), reference=path, trunk_height=2.0)
+    with pytest.warns(UserWarning, match="wood is silent"):
+        t = grow_tree(np.random.default_rng(0), reference=path, trunk_height=2.0)
     assert t.n_leaves > 0.5 * lsys_tree.n_leaves
     assert np.allclose(np.linalg.norm(t.leaves.normals, axis=1), 1.0)
 
 
 def test_derived_reference_with_zero_randomisation_is_rigid(tmp_path, lsys_tree):
     ref = load_reference(lsys_tree.to_mesh())
-    t = grow_tree(np.random.default_rng(0), reference=ref, **ZERO)
-    for i in range(len(t.branches)):
-        tpl = ref.branches[t.branches.reference_index[i]]
-        grown = t.leaves.centers[t.leaf_branch == i] - t.branches.origins[i]
+    with pytest.warns(UserWarning, match="wood is silent"):
+        t = grow_tree(np.random.default_rng(0), reference=ref, **ZERO)
+    for i in range(len(t.layout)):
+        tpl = ref.branches[t.layout.reference_index[i]]
+        grown = t.leaves.centers[t.leaf_branch == i] - t.layout.origins[i]
         _, resid = _kabsch(tpl.leaf_centers - tpl.base, grown)
         assert resid < 1e-9
 
@@ -421,7 +423,8 @@ def test_lsystem_tree_rejects_bad_parameters():
 
 def test_tree_obj_round_trip_keeps_leaves_and_bark(tree, tmp_path):
     path = tree.to_obj(tmp_path / "tree.obj")
-    back = load_tree(path)
+    with pytest.warns(batecho.ObjWarning, match="wood is silent"):
+        back = load_tree(path)
     assert back.n_leaves == tree.n_leaves
     assert np.allclose(back.leaves.centers, tree.leaves.centers, atol=1e-9)
     assert np.allclose(back.leaves.radii, tree.leaves.radii, rtol=1e-9)
@@ -441,7 +444,8 @@ def test_load_tree_assigns_leaves_to_nearest_branch_without_names(tmp_path, lsys
         bark_groups=lsys_tree.bark_groups,
         bark_group_names=lsys_tree.bark_group_names,
     )
-    back = load_tree(path)
+    with pytest.warns(batecho.ObjWarning):
+        back = load_tree(path)
     agree = np.mean(back.leaf_branch == lsys_tree.leaf_branch)
     assert agree > 0.95
 
@@ -502,3 +506,80 @@ def test_plot_tree_returns_a_figure_and_writes_png(tree, lsys_tree, tmp_path):
         fig.savefig(tmp_path / f"{name}.png", dpi=50)
         plt.close(fig)
         assert (tmp_path / f"{name}.png").stat().st_size > 1000
+
+
+# ---------------------------------------------------------------------------------------------
+# The woody skeleton (Tree.branches)
+# ---------------------------------------------------------------------------------------------
+
+
+def _surface_misfit(t: Tree) -> np.ndarray:
+    """Per bark vertex, the least |distance to a skeleton segment's axis - its radius| (m)."""
+    from scipy.spatial import cKDTree
+
+    b = t.branches
+    s, e, r = b.starts, b.ends, b.radii
+    k = 8
+    at = (np.arange(k) + 0.5) / k
+    pts = (s[:, None, :] + at[None, :, None] * (e - s)[:, None, :]).reshape(-1, 3)
+    seg = np.repeat(np.arange(len(s)), k)
+    v = t.bark_vertices
+    _, near = cKDTree(pts).query(v, k=8)
+    best = np.full(len(v), np.inf)
+    for j in range(near.shape[1]):
+        g = seg[near[:, j]]
+        d, m = e[g] - s[g], v - s[g]
+        u = np.clip(np.einsum("ij,ij->i", m, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+        dist = np.linalg.norm(m - u[:, None] * d, axis=1)
+        best = np.minimum(best, np.abs(dist - r[g]))
+    return best
+
+
+def test_lsystem_tree_skeleton_is_its_bark_tubes_axes_with_their_radii(lsys_tree):
+    wood = lsys_tree.branches
+    assert isinstance(wood, batecho.Branches)
+    sides = lsys_tree.params["bark_sides"]
+    assert len(wood) == len(lsys_tree.bark_faces) // (2 * sides)
+    assert np.median(_surface_misfit(lsys_tree)) < 1e-9
+    assert wood.radii.max() == pytest.approx(lsys_tree.params["trunk_radius"])
+
+
+def test_reference_skeleton_lies_on_the_axis_of_its_bark():
+    ref = batecho.trees.load_reference()
+    assert ref.has_skeleton
+    t = ref.tree()
+    miss = _surface_misfit(t)
+    # a segment's radius is the mean of its two rings': within the taper, the 0.1 mm rounding
+    assert np.quantile(miss, 0.99) < 2e-3 and np.median(miss) < 1e-3
+    assert 3000 < len(t.branches) < 5000
+    assert t.branches.radii.min() >= 0.0015 and t.branches.radii.max() == pytest.approx(0.2, 0.02)
+
+
+@pytest.mark.parametrize("kw", [{}, {"bend_sd_deg": 30.0, "length_sd": 0.3, "slide_sd": 0.3}])
+def test_grown_tree_skeleton_follows_its_randomised_bark(kw):
+    t = grow_tree(np.random.default_rng(5), **kw)
+    miss = _surface_misfit(t)
+    assert np.quantile(miss, 0.99) < 2e-3 and np.median(miss) < 1e-3
+
+
+def test_skeleton_moves_and_scales_with_the_tree(tree):
+    moved = tree.transformed(90.0, (1.0, 2.0, 0.0), scale=2.0)
+    c = tree.branches.starts - tree.base
+    want = tree.base + 2.0 * np.column_stack([-c[:, 1], c[:, 0], c[:, 2]]) + [1.0, 2.0, 0.0]
+    np.testing.assert_allclose(moved.branches.starts, want, atol=1e-12)
+    np.testing.assert_allclose(moved.branches.radii, 2.0 * tree.branches.radii)
+
+
+def test_with_branches_gives_a_tree_a_skeleton_or_silences_it(tree):
+    wood = batecho.Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 3.0]], [0.1])
+    assert tree.with_branches(wood).branches is wood
+    assert tree.with_branches(None).branches is None
+    with pytest.raises(TypeError, match="branches must be None or batecho.Branches"):
+        tree.with_branches("trunk")
+
+
+def test_a_reference_without_a_skeleton_grows_trees_with_silent_wood(tmp_path, lsys_tree):
+    path = lsys_tree.to_obj(tmp_path / "ref.obj")
+    with pytest.warns(UserWarning, match="wood is silent"):
+        t = grow_tree(np.random.default_rng(0), reference=path)
+    assert t.branches is None

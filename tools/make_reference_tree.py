@@ -18,7 +18,8 @@ The structure that :func:`batecho.trees.grow_tree` randomises is written to the 
 triangles of the axis tube (the first triangles of the branch's bark group, in file order),
 and for each sub-branch ("unit": the sub-branch with its twigs and leaves, in file order) its
 anchor (arc length along the axis, m), its number of bark triangles (each quad is two) and
-its number of leaves.
+its number of leaves. The woody skeleton is there too: every bark tube's axis points with the
+bark's radius at each (the trunk's, each branch axis's, each unit's sub-branch and twigs).
 
 Determinism: one ``numpy.random.Generator(PCG64(SEED))`` used only through ``random()``
 (normals by Box-Muller), coordinates rounded to 4 decimals (0.1 mm) before they are written,
@@ -194,17 +195,24 @@ def leaf_card(center: np.ndarray, along: np.ndarray, normal: np.ndarray, r: floa
 
 @dataclass
 class Part:
-    """Bark (vertices, quads) and leaf cards of one piece of a branch."""
+    """Bark (vertices, quads), leaf cards and the tubes' axes (the woody skeleton) of one piece
+    of a branch."""
 
     verts: list[np.ndarray] = field(default_factory=list)
     quads: list[np.ndarray] = field(default_factory=list)
     cards: list[np.ndarray] = field(default_factory=list)
+    tubes: list[np.ndarray] = field(default_factory=list)
 
     def add_tube(self, points: np.ndarray, radii: np.ndarray, sides: int) -> None:
         v, q = tube(points, radii, sides)
         base = sum(len(x) for x in self.verts)
         self.verts.append(v)
         self.quads.append(q + base)
+        self.tubes.append(np.column_stack([points, radii]))
+
+    def skeleton(self) -> list[list[list[float]]]:
+        """Each tube's axis points and radii as rows ``[x, y, z, r]`` (m), rounded."""
+        return [_round(t).tolist() for t in self.tubes]
 
     @property
     def n_quads(self) -> int:
@@ -438,6 +446,8 @@ def render(seed: int = SEED) -> dict[str, bytes]:
                 "subbranch_anchors": _round(np.array(br.anchors)).tolist(),
                 "subbranch_bark_triangles": unit_tris,
                 "subbranch_leaves": unit_leaves,
+                "axis_tube": br.axis_part.skeleton()[0],
+                "subbranch_tubes": [part.skeleton() for part in br.units],
             }
         )
     groups += leaf_groups
@@ -476,6 +486,7 @@ def render(seed: int = SEED) -> dict[str, bytes]:
             "bark_group": "trunk",
             "base": [0.0, 0.0, 0.0],
             "top": [0.0, 0.0, TRUNK_HEIGHT],
+            "tube": trunk.skeleton()[0],
         },
         "branches": meta,
         "conventions": (

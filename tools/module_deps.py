@@ -40,6 +40,7 @@ def top_modules(src: Path) -> dict[str, list[Path]]:
     """Top-level module name -> its source files."""
     mods: dict[str, list[Path]] = {}
     for p in sorted(src.iterdir()):
+        # (a file `a.rs` and a folder `a/` of its submodules are one module)
         if p.is_dir():
             mods.setdefault(p.name, []).extend(sorted(p.rglob("*.rs")))
         elif p.suffix == ".rs" and p.name != "lib.rs":

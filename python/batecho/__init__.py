@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._core import __version__
 from ._resources import memory_limit, set_memory_limit
-from .echoes.simulate import Echoes, lobe_members, simulate
+from .echoes.simulate import Echoes, LeafSights, leaf_sights, lobe_members, simulate
 from .flight.kinematic import circle, figure_eight, line_to
 from .flight.mount import SonarMount
 from .flight.poses import Poses, look_at
@@ -38,7 +38,9 @@ from .sonar.absorption import Atmosphere
 from .sonar.beam import Beam, horseshoe_bat_beamwidth_deg
 from .sonar.call import Call
 from .sonar.receivers import Receiver
+from .sonar.shading import Shading
 from .sonar.sonar import Sonar
+from .trees.branches import Branches
 from .trees.branching import Branching, trunk_branching
 from .trees.grow import grow_tree
 from .trees.leaves import Leaves
@@ -93,6 +95,7 @@ __all__ = [
     "Atmosphere",
     "Beam",
     "BranchLayout",
+    "Branches",
     "Branching",
     "Call",
     "ClearanceWarning",
@@ -101,6 +104,7 @@ __all__ = [
     "Forest",
     "IPPWarning",
     "LSystem",
+    "LeafSights",
     "Leaves",
     "Mesh",
     "ObjWarning",
@@ -113,6 +117,7 @@ __all__ = [
     "SceneFile",
     "ScenefileError",
     "Segments",
+    "Shading",
     "Sonar",
     "SonarMount",
     "SquaredExponentialMixture",
@@ -124,6 +129,7 @@ __all__ = [
     "grow_tree",
     "horseshoe_bat_beamwidth_deg",
     "integrate_intensity",
+    "leaf_sights",
     "line_to",
     "load_obj",
     "load_reference",

@@ -14,11 +14,22 @@ _F64 = npt.NDArray[np.float64]
 _BeamTuple = tuple[float, float, float, float, float, float]  # (A1, sx, sy, theta, az0, el0)
 
 class Scene:
-    """Leaves (centres (n,3), unit normals (n,3), radii (n,)) and their BVH."""
+    """Leaves (centres (n,3), unit normals (n,3), radii (n,)) and their BVH; branch segments
+    (starts (k,3), ends (k,3), radii (k,)). Either may be empty, not both."""
 
-    def __init__(self, centers: _F64, normals: _F64, radii: _F64) -> None: ...
+    def __init__(
+        self,
+        centers: _F64,
+        normals: _F64,
+        radii: _F64,
+        branch_starts: _F64 | None = None,
+        branch_ends: _F64 | None = None,
+        branch_radii: _F64 | None = None,
+    ) -> None: ...
     @property
     def n_leaves(self) -> int: ...
+    @property
+    def n_branches(self) -> int: ...
     @property
     def build_time_s(self) -> float: ...
     @property
@@ -53,6 +64,8 @@ class Sonar:
         too_close: str,
         min_ka: float,
         receivers: list[tuple[tuple[float, float, float], _BeamTuple | None]] | None = None,
+        shading: tuple[float, bool] | None = None,
+        branch_piece_scale: float = 1.0,
     ) -> None: ...
     @property
     def n_receivers(self) -> int: ...
@@ -78,7 +91,14 @@ def simulate(
     search: str = "bvh",
     method: str = "exact",
     tol: float = 1e-12,
-) -> tuple[npt.NDArray[np.complex128], _F64 | None, npt.NDArray[np.uint64]]: ...
+) -> tuple[
+    npt.NDArray[np.complex128],
+    _F64 | None,
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.complex128] | None,
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint64],
+]: ...
 def lobe_members(
     scene: Scene,
     sonar: Sonar,
@@ -89,6 +109,15 @@ def lobe_members(
     search: str = "bvh",
     receiver: int | None = None,
 ) -> npt.NDArray[np.int64]: ...
+def leaf_sights(
+    scene: Scene,
+    sonar: Sonar,
+    position: _F64,
+    forward: _F64,
+    up: _F64,
+    left: _F64,
+    branches_block: bool,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint64], npt.NDArray[np.bool_]]: ...
 def farthest_members(
     scene: Scene, sonar: Sonar, positions: _F64, forward: _F64, up: _F64, left: _F64
 ) -> _F64: ...

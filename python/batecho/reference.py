@@ -23,9 +23,11 @@ from scipy.special import erf, j1
 
 from .echoes.simulate import Echoes
 from .flight.poses import Poses
+from .forest.scene import Scene
 from .sonar.absorption import iso9613_alpha_db_per_m
 from .sonar.beam import Beam
 from .sonar.sonar import Sonar
+from .trees.branches import Branches
 from .trees.leaves import Leaves, as_leaves
 
 _atan2 = np.frompyfunc(math.atan2, 2, 1)
@@ -69,11 +71,12 @@ def _two_way_gain(sonar: Sonar, az: np.ndarray, el: np.ndarray) -> np.ndarray:
 
 
 # Section 1 and 3: angles and the lobe --------------------------------------------------------
-def _view(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
-    """Range, unit direction, azimuth, elevation and two-way gain of every leaf from pose i."""
+def _view(points: np.ndarray, sonar: Sonar, poses: Poses, i: int):
+    """Range, unit direction, azimuth, elevation and two-way gain of every point (a leaf's
+    centre, a branch piece's reference point) from pose i."""
     p = poses.positions[i]
     d, u, l_ = poses.forward[i], poses.up[i], poses.left[i]
-    dx = leaves.centers - p
+    dx = points - p
     r = np.sqrt(dx[:, 0] * dx[:, 0] + dx[:, 1] * dx[:, 1] + dx[:, 2] * dx[:, 2])
     with np.errstate(invalid="ignore", divide="ignore"):
         e = dx / r[:, None]
@@ -103,12 +106,21 @@ def _record_limit(sonar: Sonar) -> float:
 
 def _counting(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
     """Boolean mask of counting leaves for pose i, with the view quantities."""
-    r, e, ed, G = _view(leaves, sonar, poses, i)
+    return _counting_points(leaves.centers, sonar, poses, i, "leaf")
+
+
+def _counting_points(
+    points: np.ndarray, sonar: Sonar, poses: Poses, i: int, what: str, check_close: bool = True
+):
+    """Boolean mask of the counting points for pose i, with the view quantities; a point
+    closer than min_range_m raises naming ``what`` and its index (with ``check_close`` and
+    ``too_close="raise"``), or is left out."""
+    r, e, ed, G = _view(points, sonar, poses, i)
     too_close = ~(r >= sonar.min_range_m)
-    if too_close.any() and sonar.too_close == "raise":
+    if too_close.any() and sonar.too_close == "raise" and check_close:
         j = int(np.argmax(too_close))
         raise ValueError(
-            f"leaf {j} is {r[j]:.3e} m from pose {i}, closer than min_range_m = "
+            f"{what} {j} is {r[j]:.3e} m from pose {i}, closer than min_range_m = "
             f"{sonar.min_range_m} m"
         )
     mask = ~too_close & (r <= _record_limit(sonar))
@@ -301,43 +313,316 @@ def _incidence(e: np.ndarray, n: np.ndarray):
     return np.minimum(beta, np.pi - beta), np.minimum(np.abs(cos_b), 1.0), np.minimum(sin_b, 1.0)
 
 
+# Section 9: branches ------------------------------------------------------------------------
+#: The largest quadratic phase error across a branch piece, k l^2 / (4 r), at the band's top.
+PIECE_PHASE = math.pi / 512.0
+#: The largest share of the beam's Gaussian width a branch piece may span.
+PIECE_BEAM_SHARE = 1.0 / 32.0
+#: The most pieces one segment may be cut into for one pose.
+MAX_PIECES = 1 << 20
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a . b, summed x, y, z in that order (as the Rust core does)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def _sinc(x: np.ndarray) -> np.ndarray:
+    """sin(x)/x, 1 at x = 0."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(np.abs(x) < 1e-4, 1.0 - x * x / 6.0, np.sin(x) / np.where(x == 0, 1, x))
+
+
+def _cylinder_po(k, a, length, cos_g, sin_g):
+    """f = (l/2) sqrt(k a cos(gamma) / pi) sinc(k l sin(gamma)): the signed backscattering
+    amplitude (m) of a rigid finite cylinder in physical optics, psi = -pi/4."""
+    return 0.5 * length * np.sqrt(k * a * cos_g / math.pi) * _sinc(k * length * sin_g)
+
+
+def _max_piece_length(sonar: Sonar, r: float, k_max: float) -> float:
+    """The longest piece at nearest distance r: scale min(sqrt(4 r PIECE_PHASE / k_max),
+    PIECE_BEAM_SHARE sigma r), sigma the narrowest Gaussian width of the two beams."""
+    tx = cast(Beam, sonar.beam)._core_tuple()
+    rx = tx if sonar.receiver is None else sonar.receiver._core_tuple()
+    sigma = min(tx[1], tx[2], rx[1], rx[2])
+    far = math.sqrt(4.0 * r * PIECE_PHASE / k_max)
+    return sonar.branch_piece_scale * min(far, PIECE_BEAM_SHARE * sigma * r)
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance from p to the segment a-b."""
+    d, m = b - a, p - a
+    dd = float(_dot(d, d))
+    t = min(max(float(_dot(m, d)) / dd, 0.0), 1.0) if dd > 0 else 0.0
+    q = m - t * d
+    return math.sqrt(float(_dot(q, q)))
+
+
+def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float):
+    """The counting branch pieces of pose i: segment, length, radius, cos and sin of the tilt,
+    and the view of their reference points (mask applied): range, two-way gain."""
+    p = poses.positions[i]
+    seg, ref, length, radius, cg, sg = [], [], [], [], [], []
+    too_close: list[tuple[int, float]] = []
+    for j in range(len(branches)):
+        a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
+        near = _segment_distance(p, a, b) - rad
+        if near > sonar.max_reach_m:
+            continue
+        d = b - a
+        lj = math.sqrt(float(_dot(d, d)))
+        u = d / lj
+        n = max(1, math.ceil(lj / _max_piece_length(sonar, max(near, sonar.min_range_m), k_max)))
+        if n > MAX_PIECES:
+            raise ValueError(f"branch {j} would need {n} pieces at {near:.3e} m from the sonar")
+        pl = lj / n
+        for q in range(n):
+            c = a + ((2 * q + 1) / (2 * n)) * d
+            v = c - p
+            sv = float(_dot(v, u))
+            w = v - sv * u
+            rho = math.sqrt(float(_dot(w, w)))
+            if not rho > rad:
+                if abs(sv) <= 0.5 * pl:  # the pose inside the piece
+                    too_close.append((j, min(near, 0.0)))
+                continue  # (end-on: only the flat end is lit, which the model leaves out)
+            seg.append(j)
+            ref.append(c - (rad / rho) * w)
+            length.append(pl)
+            radius.append(rad)
+            # the tilt as seen from the reference point: the slope of the near surface
+            # line's range there, so that adjacent pieces' edges meet in phase
+            h = rho - rad
+            rr = math.sqrt(sv * sv + h * h)
+            cg.append(h / rr)
+            sg.append(abs(sv) / rr)
+    pts = np.array(ref).reshape(-1, 3)
+    r, _, _, G = _view(pts, sonar, poses, i) if len(pts) else (np.zeros(0),) * 4
+    close = ~(r >= sonar.min_range_m)
+    too_close += [(seg[k], float(r[k])) for k in np.flatnonzero(close)]
+    if too_close and sonar.too_close == "raise":
+        j, dist = min(too_close)
+        raise ValueError(
+            f"branch {j} is {dist:.3e} m from pose {i}, closer than min_range_m = "
+            f"{sonar.min_range_m} m"
+        )
+    mask = np.zeros(len(pts), dtype=bool)
+    if len(pts):
+        mask = _counting_points(pts, sonar, poses, i, "piece", check_close=False)[0]
+    keep = np.flatnonzero(mask)
+    arr = [np.asarray(x, dtype=np.float64)[keep] for x in (length, radius, cg, sg)]
+    return (np.asarray(seg, dtype=np.int64)[keep], pts[keep], r[keep], G[keep], *arr)
+
+
+def _wood_spectrum(sonar: Sonar, r, G, length, a, cg, sg, factor, f, w) -> np.ndarray:
+    """The branch pieces' windowed band spectrum: amplitude g G f(k) / r^2 times the shading
+    factor (and absorption), phase -2 k (r + l^2 cos^2(gamma) / (24 r)) + pi/4."""
+    v = sonar.sound_speed
+    k = 2.0 * np.pi * f / v
+    Y = np.zeros(f.shape, dtype=np.complex128)
+    alpha = None
+    if sonar.absorption is not None:
+        atm = sonar.absorption
+        alpha = iso9613_alpha_db_per_m(f, atm.temperature_c, atm.relative_humidity, atm.pressure_pa)
+    for q in range(len(r)):
+        A = sonar.gain * G[q] * factor[q] * _cylinder_po(k, a[q], length[q], cg[q], sg[q])
+        if sonar.spreading:
+            A = A / r[q] ** 2
+        if alpha is not None:
+            A = A * 10.0 ** (-alpha * 2.0 * r[q] / 20.0)
+        # the phase's range: the reference point's plus the piece's mean Fresnel lag
+        # l^2 cos^2(gamma) / (24 r) (docs/model.md §9)
+        cycles = f * (2.0 * (r[q] + length[q] * length[q] * cg[q] * cg[q] / (24.0 * r[q])) / v)
+        Y += A * np.exp(1j * (-2.0 * np.pi * (cycles - np.round(cycles)) + np.pi / 4.0))
+    return w * Y
+
+
+# Section 10: shading -------------------------------------------------------------------------
+def _disk_crossings(leaves: Leaves, origin: np.ndarray, w: np.ndarray, own: int) -> int:
+    """How many leaf disks (all but ``own``) the open segment t w, 0 < t < 1, from the origin
+    crosses: the plane's hit t = (n . v) / (n . w) in (0, 1), inside the radius or on the rim.
+    A segment parallel to a disk's plane does not cross it."""
+    v = leaves.centers - origin
+    nrm = leaves.normals
+    # (at extreme coordinates the products overflow to inf or NaN, which the tests below
+    # reject as the Rust core does)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        nv = _dot(nrm, v)
+        d = nrm[:, 0] * w[0] + nrm[:, 1] * w[1] + nrm[:, 2] * w[2]
+        t = nv / d
+        q = t[:, None] * w[None, :] - v
+        hit = (d != 0.0) & (t > 0.0) & (t < 1.0) & (_dot(q, q) <= leaves.radii * leaves.radii)
+    if own >= 0:
+        hit[own] = False
+    return int(hit.sum())
+
+
+def _joined(branches: Branches) -> list[set[int]]:
+    """For each segment, the others that share one of its end points bit for bit."""
+    key = lambda x: tuple(np.asarray(x, dtype=np.float64).view(np.uint64).tolist())
+    at: dict[tuple, set[int]] = {}
+    for j in range(len(branches)):
+        for pt in {key(branches.starts[j]), key(branches.ends[j])}:
+            at.setdefault(pt, set()).add(j)
+    return [
+        (at[key(branches.starts[j])] | at[key(branches.ends[j])]) - {j}
+        for j in range(len(branches))
+    ]
+
+
+def _blocked(branches: Branches, origin: np.ndarray, w: np.ndarray, spared: set[int]) -> bool:
+    """Whether the open segment t w, 0 < t < 1, passes through the interior of a branch
+    cylinder (any but those in ``spared``): some t where the point lies closer to the axis
+    than the radius and strictly between the segment's end planes."""
+    for j in range(len(branches)):
+        if j in spared:
+            continue
+        d = branches.ends[j] - branches.starts[j]
+        length = math.sqrt(float(_dot(d, d)))
+        u = d / length
+        s = branches.starts[j] - origin
+        su = float(_dot(s, u))
+        e0 = s - su * u
+        c = float(_dot(e0, e0)) - float(branches.radii[j]) ** 2
+        sw = float(_dot(w, u))
+        e1 = w - sw * u
+        qa, qb = float(_dot(e1, e1)), float(_dot(e0, e1))
+        lo, hi = 0.0, 1.0
+        if qa == 0.0:
+            if not c < 0.0:
+                continue
+        else:
+            disc = qb * qb - qa * c
+            if not disc > 0.0:
+                continue
+            root = math.sqrt(disc)
+            lo, hi = max(lo, (qb - root) / qa), min(hi, (qb + root) / qa)
+        if sw == 0.0:
+            if not 0.0 < -su < length:
+                continue
+        else:
+            t0, t1 = su / sw, (su + length) / sw
+            a, b = (t0, t1) if sw > 0.0 else (t1, t0)
+            lo, hi = max(lo, a), min(hi, b)
+        if lo < hi:
+            return True
+    return False
+
+
+def _shading(
+    leaves: Leaves | None,
+    branches: Branches | None,
+    sonar: Sonar,
+    origin: np.ndarray,
+    leaf_idx: np.ndarray,
+    piece_seg: np.ndarray,
+    piece_ref: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """tau^(2m) for each counting leaf and piece (0 where a branch blocks), by brute force."""
+    sh = sonar.shading
+    if sh is None:
+        return np.ones(len(leaf_idx)), np.ones(len(piece_seg))
+    tau = sh.leaf_transmission
+    joined = _joined(branches) if branches is not None else []
+
+    def factor(point: np.ndarray, own_leaf: int, spared: set[int]) -> float:
+        w = point - origin
+        if sh.branches_block and branches is not None and _blocked(branches, origin, w, spared):
+            return 0.0
+        m = 0 if leaves is None else _disk_crossings(leaves, origin, w, own_leaf)
+        return 1.0 if m == 0 else (tau * tau) ** m
+
+    assert leaves is not None or len(leaf_idx) == 0
+    fl = [factor(cast(Leaves, leaves).centers[j], int(j), set()) for j in leaf_idx]
+    fp = [factor(piece_ref[q], -1, {int(g)} | joined[g]) for q, g in enumerate(piece_seg)]
+    return np.asarray(fl, dtype=np.float64), np.asarray(fp, dtype=np.float64)
+
+
+def leaf_sights(scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True):
+    """For each counting leaf of one pose (ascending index): the other leaf disks its ray
+    crosses and whether a branch blocks it, by testing every leaf and branch."""
+    from .echoes.simulate import LeafSights
+
+    leaves, branches = _parts(scene)
+    if leaves is None:
+        raise ValueError("leaf_sights needs a scene with leaves")
+    idx = np.flatnonzero(_counting(leaves, sonar, pose, 0)[0])
+    origin = pose.positions[0]
+    crossings = np.zeros(idx.size, dtype=np.int64)
+    blocked = np.zeros(idx.size, dtype=bool)
+    for q, j in enumerate(idx):
+        w = leaves.centers[j] - origin
+        crossings[q] = _disk_crossings(leaves, origin, w, int(j))
+        if branches_block and branches is not None:
+            blocked[q] = _blocked(branches, origin, w, set())
+    return LeafSights(idx.astype(np.int64), crossings, blocked)
+
+
+def _parts(scene: Any) -> tuple[Leaves | None, Branches | None]:
+    """The leaves and branches of a Scene, Leaves, or anything with ``.leaves``."""
+    if isinstance(scene, Scene):
+        return scene.leaves, scene.branches
+    return as_leaves(scene), None
+
+
 def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> Echoes:
     """Echoes of ``scene`` for every pose, straight from docs/model.md (``method`` is ignored: the
-    reference is always the exact sum)."""
-    leaves = as_leaves(scene)
+    reference is always the exact sum). Branches (§9) and shading (§10) by brute force."""
+    leaves, branches = _parts(scene)
     if not isinstance(sonar, Sonar) or not isinstance(poses, Poses):
         raise TypeError("simulate(scene, sonar: Sonar, poses: Poses)")
     if sonar.is_auto:
-        # the record holds the farthest counting leaf of any pose plus the pulse tail
+        # the record holds the farthest counting scatterer of any pose plus the pulse tail
         provisional = sonar.resolve(sonar._provisional_n())
+        k_top = 2.0 * np.pi * _grid(provisional)[2][-1] / sonar.sound_speed
         far = 0.0
         for i in range(len(poses)):
-            if sonar.receivers is not None:
+            if leaves is not None and sonar.receivers is not None:
                 for mask, r_tx, _, r_rx, _, _ in _heard(leaves, provisional, poses, i):
                     far = max(far, float(((r_tx + r_rx) / 2.0)[mask].max(initial=0.0)))
-            else:
+            elif leaves is not None:
                 mask, r, _, _ = _counting(leaves, provisional, poses, i)
                 far = max(far, float(r[mask].max(initial=0.0)))
+            if branches is not None:
+                rp = _pieces(branches, provisional, poses, i, k_top)[2]
+                far = max(far, float(rp.max(initial=0.0)))
         sonar = sonar.resolve(sonar.record_length_for(far))
     k0, k1, f, w = _grid(sonar)
-    a_all = leaves.radii
-    if sonar.min_ka > 0:
-        ka = 2.0 * np.pi * f[0] / sonar.sound_speed * a_all
-        if ka.min() < sonar.min_ka:
-            raise ValueError(f"leaf {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
+    k_lo = 2.0 * np.pi * f[0] / sonar.sound_speed
+    k_top = 2.0 * np.pi * f[-1] / sonar.sound_speed
+    for name, parts in (("leaf", leaves), ("branch", branches)):
+        if parts is not None and sonar.min_ka > 0:
+            ka = k_lo * parts.radii
+            if ka.min() < sonar.min_ka:
+                raise ValueError(f"{name} {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
     n = cast(int, sonar.n_samples)
     if sonar.receivers is not None:
         return _simulate_heard(leaves, sonar, poses, k0, k1, f, w)
     spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
+    wood = np.zeros_like(spectra) if branches is not None else None
     impulses = np.zeros((len(poses), n))
     counts = np.zeros(len(poses), dtype=np.int64)
+    n_pieces = np.zeros(len(poses), dtype=np.int64)
+    n_shaded = np.zeros(len(poses), dtype=np.int64)
     for i in range(len(poses)):
-        mask, r, e, G = _counting(leaves, sonar, poses, i)
-        idx = np.flatnonzero(mask)
-        counts[i] = idx.size
+        idx = np.zeros(0, dtype=np.int64)
+        if leaves is not None:
+            mask, r, e, G = _counting(leaves, sonar, poses, i)
+            idx = np.flatnonzero(mask)
+        pc = (np.zeros(0, dtype=np.int64), np.zeros((0, 3)), *([np.zeros(0)] * 6))
+        if branches is not None:
+            pc = _pieces(branches, sonar, poses, i, k_top)
+        seg, ref, rp, Gp, lp, ap, cg, sg = pc
+        fl, fp = _shading(leaves, branches, sonar, poses.positions[i], idx, seg, ref)
+        counts[i], n_pieces[i] = idx.size, seg.size
+        n_shaded[i] = int((fl != 1.0).sum())
         if idx.size:
+            leaves = cast(Leaves, leaves)
             beta = _incidence(e[idx], leaves.normals[idx])
-            spectra[i] = _spectrum(sonar, r[idx], G[idx], beta, a_all[idx], f, w)
+            spectra[i] = _spectrum(sonar, r[idx], G[idx] * fl, beta, leaves.radii[idx], f, w)
+        if wood is not None:
+            wood[i] = _wood_spectrum(sonar, rp, Gp, lp, ap, cg, sg, fp, f, w)
+            spectra[i] += wood[i]
         full = np.zeros(n // 2 + 1, dtype=np.complex128)
         full[k0 : k1 + 1] = spectra[i]
         impulses[i] = 2.0 * np.fft.irfft(full, n)
@@ -349,6 +634,9 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
         n_leaves=counts,
         sonar=sonar,
         poses=poses,
+        wood_spectrum=wood,
+        n_pieces=n_pieces,
+        n_shaded=n_shaded,
     )
 
 
@@ -406,21 +694,73 @@ def point_disk_distance(
     return np.where(rho <= a, np.abs(h), np.sqrt(h * h + t * t))
 
 
-def clearance(scene: Any, points: Any, chunk: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
-    """Per point (n, 3), the distance (m) to the nearest leaf disk of ``scene`` and that leaf's
-    index (the smallest among equally near leaves), by testing every leaf."""
-    leaves = as_leaves(scene)
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    c, nv, a = leaves.centers, leaves.normals, leaves.radii
+def point_cylinder_distance(
+    p: np.ndarray, a: np.ndarray, u: np.ndarray, length: np.ndarray | float, r: np.ndarray | float
+) -> np.ndarray:
+    """Distance from points ``p`` to solid capped cylinders (axis from ``a`` along the unit
+    ``u`` for ``length``, radius ``r``; 0 inside), broadcast row by row.
+
+    ``d = p - a``, axial ``s = d . u``, distance from the axis ``rho = |d - s u|``; the axial
+    excess ``e = max(-s, s - length, 0)`` and radial ``t = max(rho - r, 0)`` give
+    ``sqrt(e^2 + t^2)``. Written in the Rust core's order of operations."""
+    d = p - a
+    s = d[..., 0] * u[..., 0] + d[..., 1] * u[..., 1] + d[..., 2] * u[..., 2]
+    q = d - s[..., None] * u
+    rho = np.sqrt(q[..., 0] * q[..., 0] + q[..., 1] * q[..., 1] + q[..., 2] * q[..., 2])
+    e = np.maximum(np.maximum(-s, s - length), 0.0)
+    t = np.maximum(rho - r, 0.0)
+    return np.sqrt(e * e + t * t)
+
+
+def _nearest(dist_fn, n: int, pts: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, the least of ``dist_fn(points (m,1,3)) -> (m, n)`` and its first index."""
     dist = np.full(len(pts), np.inf)
     index = np.zeros(len(pts), dtype=np.int64)
-    step = max(1, chunk // len(c))
+    step = max(1, chunk // max(n, 1))
     for s in range(0, len(pts), step):
-        d = point_disk_distance(pts[s : s + step, None, :], c[None], nv[None], a[None])
+        d = dist_fn(pts[s : s + step, None, :])
         k = np.argmin(d, axis=1)  # the first of equal minima: the smallest index
         dist[s : s + step] = d[np.arange(len(k)), k]
         index[s : s + step] = k
     return dist, index
 
 
-__all__ = ["clearance", "lobe_members", "point_disk_distance", "simulate"]
+def clearance(scene: Any, points: Any, chunk: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
+    """Per point (n, 3), the distance (m) to the nearest leaf disk or branch cylinder of
+    ``scene`` and its index: the leaf's (the smallest among equally near leaves), or
+    ``-1 - j`` for branch ``j`` (a leaf first at equal distance), by testing every one."""
+    leaves, branches = _parts(scene)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    dist = np.full(len(pts), np.inf)
+    index = np.zeros(len(pts), dtype=np.int64)
+    if leaves is not None:
+        c, nv, a = leaves.centers, leaves.normals, leaves.radii
+        dist, index = _nearest(
+            lambda q: point_disk_distance(q, c[None], nv[None], a[None]), len(c), pts, chunk
+        )
+    if branches is not None:
+        st = branches.starts
+        d = branches.ends - st
+        length = np.sqrt(_dot(d, d))
+        u = d / length[:, None]
+        r = branches.radii
+        wd, wi = _nearest(
+            lambda q: point_cylinder_distance(q, st[None], u[None], length[None], r[None]),
+            len(r),
+            pts,
+            chunk,
+        )
+        wood = wd < dist
+        dist = np.where(wood, wd, dist)
+        index = np.where(wood, -1 - wi, index)
+    return dist, index
+
+
+__all__ = [
+    "clearance",
+    "leaf_sights",
+    "lobe_members",
+    "point_cylinder_distance",
+    "point_disk_distance",
+    "simulate",
+]

@@ -24,6 +24,14 @@ pub enum Error {
         range: f64,
         min_range: f64,
     },
+    /// A branch's surface is closer to a pulse position than `min_range` (or the pulse lies
+    /// inside it: `range <= 0`).
+    BranchTooClose {
+        pose: usize,
+        branch: usize,
+        range: f64,
+        min_range: f64,
+    },
     /// An OBJ/MTL file could not be read or understood.
     Obj(String),
     /// A request larger than the memory limit (`budget`), or one the allocator refused; the
@@ -46,6 +54,18 @@ impl fmt::Display for Error {
                 "leaf {leaf} is {range:.3e} m from receiver {receiver} of pose {pose}, closer than \
                  min_range_m = {min_range} m; the far-field echo model does not hold there (move \
                  the receiver or the pose, lower min_range_m, or pass too_close=\"skip\")"
+            ),
+            Error::BranchTooClose { pose, branch, range, min_range } if *range <= 0.0 => write!(
+                f,
+                "pose {pose} lies inside branch {branch} (its surface is {:.3e} m away, min_range_m = {min_range} m); \
+                 move the pose, or pass too_close=\"skip\" to leave such pieces out",
+                -range
+            ),
+            Error::BranchTooClose { pose, branch, range, min_range } => write!(
+                f,
+                "branch {branch} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \
+                 the far-field echo model does not hold there (move the pose, lower min_range_m, \
+                 or pass too_close=\"skip\" to leave such pieces out)"
             ),
         }
     }

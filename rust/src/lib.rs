@@ -15,6 +15,7 @@ pub mod lobe;
 pub mod math;
 pub mod physics;
 pub mod scene;
+pub mod shade;
 pub mod simulate;
 pub mod sonar;
 

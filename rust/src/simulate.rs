@@ -1,7 +1,10 @@
 //! Echoes for many poses: the lobe query, the band spectrum and the impulse response of each
-//! pose, poses in parallel. Receivers at their own places take [`receivers`]' path.
+//! pose, poses in parallel. Receivers at their own places take [`receivers`]' path; a scene
+//! with branches or a sonar that shades takes [`scatter`]'s path per pose; without either, the
+//! leaves' path is the paper model's, unchanged.
 
 pub mod receivers;
+pub mod scatter;
 
 use crate::budget;
 use crate::echo::impulse::impulse_from_band;
@@ -10,6 +13,7 @@ use crate::error::{invalid, Result};
 use crate::fast::pulse::fast_pulse;
 use crate::fast::FastSonar;
 use crate::fast::{fast_band_spectrum, FastPlan};
+use crate::lobe::candidates::Candidates;
 use crate::lobe::{candidates, farthest_member_range, members_of, Search};
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
@@ -17,8 +21,11 @@ use crate::sonar::Sonar;
 use rayon::prelude::*;
 
 /// Echoes of `p` poses: spectra `(p, M)` as separate real and imaginary parts, impulses
-/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose. With `R`
-/// receivers of their own (`n_receivers = R > 0`), `(p, R, M)`, `(p, R, n)` and `(p, R)`.
+/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose; with
+/// branches, the wood's share of the spectra `(p, M)` (empty without) and the number of
+/// counting branch pieces; with shading, the number of counting leaves it dims or silences.
+/// With `R` receivers of their own (`n_receivers = R > 0`), `(p, R, M)`, `(p, R, n)` and
+/// `(p, R)` (receivers hear leaves only: no wood, no shading).
 pub struct Echoes {
     pub n_bins: usize,
     pub n_receivers: usize,
@@ -26,6 +33,10 @@ pub struct Echoes {
     pub spectrum_im: Vec<f64>,
     pub impulse: Vec<f64>,
     pub n_leaves: Vec<u64>,
+    pub wood_re: Vec<f64>,
+    pub wood_im: Vec<f64>,
+    pub n_pieces: Vec<u64>,
+    pub n_shaded: Vec<u64>,
 }
 
 /// The leaf models hold for `k a >= min_ka`; refuse smaller leaves, naming the smallest.
@@ -71,8 +82,8 @@ pub(crate) fn check_finite(
     ))
 }
 
-/// The range (m) of the farthest counting leaf of each pose (0 where none counts); poses in
-/// parallel. `n_samples = "auto"` takes the record from this.
+/// The range (m) of the farthest counting leaf or branch piece of each pose (0 where none
+/// counts); poses in parallel. `n_samples = "auto"` takes the record from this.
 pub fn farthest_members(
     scene: &Scene,
     sonar: &Sonar,
@@ -89,7 +100,10 @@ pub fn farthest_members(
     poses
         .par_iter()
         .enumerate()
-        .map(|(i, pose)| farthest_member_range(scene, sonar, pose, i, search))
+        .map(|(i, pose)| {
+            let leaves = farthest_member_range(scene, sonar, pose, i, search)?;
+            Ok(leaves.max(scatter::farthest_piece_range(scene, sonar, pose, i)?))
+        })
         .collect()
 }
 
@@ -139,7 +153,17 @@ pub fn simulate(
         // `bvh_candidates`), and the walk is a large part of a pulse.
         return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method));
     }
+    if !sonar.params.receivers.is_empty() && !scatter::is_plain(scene, sonar) {
+        return invalid(
+            "receivers at their own places hear leaves only: a scene with branches or a sonar \
+             with shading is not yet supported with receivers (use Scene(leaves) and \
+             shading=None, or no receivers)",
+        );
+    }
     check_leaf_sizes(scene, sonar)?;
+    scatter::check_branch_sizes(scene, sonar)?;
+    // With leaves and wood, each part's spectrum gets half of `tol` (docs/model.md §9).
+    let share = scatter::tol_share(scene);
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     // Each receiver has a pose's arrays of its own: the output is that many records per pose.
@@ -167,13 +191,19 @@ pub fn simulate(
     )?;
     let plan = match method {
         Method::Exact => None,
-        Method::Fast { tol } => Some(sonar.plans.get(sonar, tol)?),
+        Method::Fast { tol } => {
+            if share < 1.0 && tol >= crate::fast::MIN_TOL && tol * share < crate::fast::MIN_TOL {
+                None // (below the fast method's floor: the exact sum holds tol)
+            } else {
+                Some(sonar.plans.get(sonar, tol * share)?)
+            }
+        }
         Method::Auto { tol } => {
             if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
                 return invalid(format!("tol must be in (0, 1), got {tol:e}"));
             }
-            if tol >= crate::fast::MIN_TOL {
-                Some(sonar.plans.get(sonar, tol)?)
+            if tol * share >= crate::fast::MIN_TOL {
+                Some(sonar.plans.get(sonar, tol * share)?)
             } else {
                 None
             }
@@ -182,44 +212,31 @@ pub fn simulate(
     if !sonar.params.receivers.is_empty() {
         return receivers::simulate_heard(scene, sonar, poses, with_impulse, search, method, plan);
     }
-    // Per pose: spectrum (re, im), impulse, number of counting leaves.
-    type PoseOut = (Vec<f64>, Vec<f64>, Vec<f64>, u64);
-    let per_pose: Vec<PoseOut> = poses
+    let plain = scatter::is_plain(scene, sonar);
+    let per_pose: Vec<(scatter::PoseEcho, Vec<f64>)> = poses
         .par_iter()
         .enumerate()
         .map(|(i, pose)| {
             let cands = candidates(scene, sonar, pose, search);
-            // Many candidates: the fast method fused with the lobe test (for `auto` too: with
-            // this many candidates its fixed cost is small against either method's per-leaf
-            // work). Otherwise the members first, then the cheaper method for their number.
-            let fused = match (&plan, method) {
-                (Some(_), Method::Fast { .. }) => true,
-                (Some(_), Method::Auto { .. }) => cands.len() >= FUSED_MIN_CANDIDATES,
-                _ => false,
-            };
-            let (re, im, count) = if let (true, Some(pl)) = (fused, &plan) {
-                fast_pulse(scene, sonar, pl, pose, i, &cands)?
+            let echo = if plain {
+                let (re, im, count) =
+                    leaf_pose(scene, sonar, plan.as_deref(), method, pose, i, &cands)?;
+                scatter::PoseEcho::of_leaves(re, im, count)
             } else {
-                let mem = members_of(scene, sonar, pose, i, cands.to_vec())?;
-                let (re, im) = match &plan {
-                    Some(pl) if cost_fast(mem.len(), m, pl) < cost_exact(mem.len(), m) => {
-                        fast_band_spectrum(sonar, pl, scene, &mem)
-                    }
-                    _ => band_spectrum(sonar, scene, &mem),
-                };
-                (re, im, mem.len() as u64)
+                scatter::pose_echo(scene, sonar, plan.as_deref(), method, pose, i, &cands)?
             };
             let mut y = Vec::new();
             if with_impulse {
                 y = budget::filled(n, 0.0, "the impulse response")?;
-                impulse_from_band(n, sonar.k0, &re, &im, &mut y);
+                impulse_from_band(n, sonar.k0, &echo.re, &echo.im, &mut y);
             }
-            check_finite(i, &re, &im, &y, sonar)?;
-            Ok((re, im, y, count))
+            check_finite(i, &echo.re, &echo.im, &y, sonar)?;
+            Ok((echo, y))
         })
         .collect::<Result<Vec<_>>>()?;
     let what = "simulate's output";
     let p = poses.len();
+    let wood = !scene.branches.is_empty();
     let mut out = Echoes {
         n_bins: m,
         n_receivers: 0,
@@ -227,12 +244,56 @@ pub fn simulate(
         spectrum_im: budget::with_capacity(p.saturating_mul(m), what)?,
         impulse: budget::with_capacity(if with_impulse { p.saturating_mul(n) } else { 0 }, what)?,
         n_leaves: budget::with_capacity(p, what)?,
+        wood_re: budget::with_capacity(if wood { p.saturating_mul(m) } else { 0 }, what)?,
+        wood_im: budget::with_capacity(if wood { p.saturating_mul(m) } else { 0 }, what)?,
+        n_pieces: budget::with_capacity(p, what)?,
+        n_shaded: budget::with_capacity(p, what)?,
     };
-    for (re, im, y, c) in per_pose {
-        out.spectrum_re.extend_from_slice(&re);
-        out.spectrum_im.extend_from_slice(&im);
+    for (e, y) in per_pose {
+        out.spectrum_re.extend_from_slice(&e.re);
+        out.spectrum_im.extend_from_slice(&e.im);
         out.impulse.extend_from_slice(&y);
-        out.n_leaves.push(c);
+        out.n_leaves.push(e.n_leaves);
+        if wood {
+            out.wood_re.extend_from_slice(&e.wood_re);
+            out.wood_im.extend_from_slice(&e.wood_im);
+        }
+        out.n_pieces.push(e.n_pieces);
+        out.n_shaded.push(e.n_shaded);
     }
     Ok(out)
+}
+
+/// The windowed band spectrum of one pose's counting leaves and their number, as the paper
+/// model sums them: by the fused fast path when there are many candidates (or the method is
+/// fast), else from the members by the cheaper method for their number.
+pub(crate) fn leaf_pose(
+    scene: &Scene,
+    sonar: &FastSonar,
+    plan: Option<&FastPlan>,
+    method: Method,
+    pose: &Pose,
+    i: usize,
+    cands: &Candidates,
+) -> Result<(Vec<f64>, Vec<f64>, u64)> {
+    let m = sonar.n_bins();
+    // Many candidates: the fast method fused with the lobe test (for `auto` too: with this
+    // many candidates its fixed cost is small against either method's per-leaf work).
+    // Otherwise the members first, then the cheaper method for their number.
+    let fused = match (plan, method) {
+        (Some(_), Method::Fast { .. }) => true,
+        (Some(_), Method::Auto { .. }) => cands.len() >= FUSED_MIN_CANDIDATES,
+        _ => false,
+    };
+    if let (true, Some(pl)) = (fused, plan) {
+        return fast_pulse(scene, sonar, pl, pose, i, cands);
+    }
+    let mem = members_of(scene, sonar, pose, i, cands.to_vec())?;
+    let (re, im) = match plan {
+        Some(pl) if cost_fast(mem.len(), m, pl) < cost_exact(mem.len(), m) => {
+            fast_band_spectrum(sonar, pl, scene, &mem)
+        }
+        _ => band_spectrum(sonar, scene, &mem),
+    };
+    Ok((re, im, mem.len() as u64))
 }

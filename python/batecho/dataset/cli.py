@@ -127,7 +127,7 @@ def _show(args: argparse.Namespace) -> int:
 def _template(args: argparse.Namespace) -> int:
     from .spec import DatasetSpec
 
-    print(DatasetSpec().to_toml(), end="")
+    print(DatasetSpec().to_toml(full=True), end="")
     return 0
 
 

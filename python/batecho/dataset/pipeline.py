@@ -173,6 +173,7 @@ def _lobe_labels(built: BuiltScene, sonar: Sonar, poses: Poses) -> dict[str, np.
     """Per pulse (and receiver, with ears): the range from the emitter to the nearest counting
     leaf and the counting leaves' mean radius (NaN where none counts)."""
     leaves = built.scene.leaves
+    assert leaves is not None  # (the dataset's scenes always hold leaves)
     p, r = len(poses), sonar.n_receivers
     ears: list[int | None] = list(range(r)) if r else [None]
     nearest = np.full((p, len(ears)), np.nan)
@@ -187,6 +188,18 @@ def _lobe_labels(built: BuiltScene, sonar: Sonar, poses: Poses) -> dict[str, np.
     if not r:
         nearest, mean_radius = nearest[:, 0], mean_radius[:, 0]
     return {"nearest_range_m": nearest, "lobe_mean_radius_m": mean_radius}
+
+
+def _wood_labels(spec: DatasetSpec, built: BuiltScene, poses: Poses, echoes: Any) -> dict:
+    """``n_shaded`` (with shading) and ``nearest_wood_m``, ``n_pieces`` (with branches)."""
+    out: dict[str, Any] = {}
+    if spec.sonar.shading:
+        out["n_shaded"] = echoes.n_shaded
+    wood = built.scene.branches
+    if spec.has_wood and wood is not None:
+        out["nearest_wood_m"] = np.array([wood.distance_to(p).min() for p in poses.positions])
+        out["n_pieces"] = echoes.n_pieces
+    return out
 
 
 def draw_sample(spec: DatasetSpec, i: int, scenes: SceneCache | None = None) -> Sample:
@@ -214,6 +227,7 @@ def draw_sample(spec: DatasetSpec, i: int, scenes: SceneCache | None = None) -> 
         **{name: built.labels[name] for name in scene_label_names(spec)},
         "n_leaves": echoes.n_leaves,
         **_lobe_labels(built, sonar, poses),
+        **_wood_labels(spec, built, poses, echoes),
     }
     return Sample(i, j, built, sonar, poses, echoes, labels, received)
 

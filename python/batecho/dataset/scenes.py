@@ -148,6 +148,7 @@ def _forest(spec: DatasetSpec, rng: np.random.Generator) -> BuiltScene:
             "scene.forest.intensity_scale or enlarge scene.forest.window_m"
         )
     leaves = forest.scene().leaves
+    assert leaves is not None  # (a forest's scene always holds its leaves)
     labels: dict[str, float] = {
         "intensity_scale": scale,
         "scale_sd": scale_sd,
@@ -164,7 +165,10 @@ def _forest(spec: DatasetSpec, rng: np.random.Generator) -> BuiltScene:
     center = np.asarray(forest.mean_position, dtype=np.float64).reshape(-1)
     if center.shape == (2,):
         center = np.array([center[0], center[1], 0.0])
-    scene = Scene(leaves) if fs.redraw_leaves else forest.scene()
+    if fs.redraw_leaves:
+        scene = Scene(leaves, branches=forest.branches if fs.branches else None)
+    else:
+        scene = forest.scene(branches=fs.branches)
     return BuiltScene(scene, center, (lo, hi), labels)
 
 

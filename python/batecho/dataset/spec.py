@@ -30,6 +30,7 @@ import numpy as np
 
 from ..echoes.canonical import CANONICAL_BOX
 from ..forest.ipp import PAPER_WINDOW
+from ..sonar.shading import DEFAULT_LEAF_TRANSMISSION as _DEFAULT_LEAF_TRANSMISSION
 
 __all__ = [
     "CallSpec",
@@ -299,16 +300,20 @@ class _Section:
             )
         return cls(**raw)
 
-    def _to_dict(self) -> dict[str, Any]:
+    def _to_dict(self, full: bool = False) -> dict[str, Any]:
         out: dict[str, Any] = {}
         for f in fields(self):  # type: ignore[arg-type]
             v = getattr(self, f.name)
             if v is None:
                 continue
+            # (keys added after the format's first version stay out at their defaults unless
+            # `full`, so that an earlier spec keeps its canonical form and hash)
+            if not full and f.metadata.get("omit_default") and v == f.default:
+                continue
             if isinstance(v, Dist):
                 v = v.to_toml_value()
             elif isinstance(v, _Section):
-                v = v._to_dict()
+                v = v._to_dict(full)
             elif isinstance(v, tuple):
                 v = [list(x) if isinstance(x, tuple) else x for x in v]
             elif isinstance(v, dict):
@@ -357,7 +362,9 @@ class ForestSpec(_Section):
     scaled by ``exp(scale_sd z)``. ``tree_params`` go to ``batecho.grow_tree``; a numeric one
     may be a distribution (``trunk_height = {uniform = [3.0, 6.0]}``), drawn once per scene.
     ``redraw_leaves = true`` keeps the forest's leaf positions but draws radii and normals
-    from ``[leaves]``. A forest drawn with no tree is drawn again (the scenes are conditioned
+    from ``[leaves]``. ``branches = true`` places the trees' woody skeletons in the scene: they
+    echo (docs/model.md §9), may block (``sonar.shading``), and every pulse gets the label
+    ``nearest_wood_m``. A forest drawn with no tree is drawn again (the scenes are conditioned
     on at least one tree).
     """
 
@@ -369,6 +376,7 @@ class ForestSpec(_Section):
     scale_sd: Dist = _f(Dist.fixed(0.0), "dist", lo=0.0)
     redraw_leaves: bool = _f(False, "bool")
     tree_params: dict[str, Any] = _f({}, "params")
+    branches: bool = _f(False, "bool", omit_default=True)
 
     def random_tree_params(self) -> tuple[str, ...]:
         """The tree parameters that are drawn (not fixed), sorted."""
@@ -439,7 +447,9 @@ class SonarSpec(_Section):
     (``fs`` Hz, ``n_samples``, ``band_hz``) is fixed. ``crop_range_m = [r0, r1]`` stores only
     the record's samples at ranges r0 <= v t / 2 <= r1 (m). Poses inside foliage can come
     within ``min_range_m`` of a leaf: ``too_close = "skip"`` (the default here) leaves such
-    leaves out, ``"raise"`` fails the sample."""
+    leaves out, ``"raise"`` fails the sample. ``shading = true`` shades the echoes
+    (``batecho.Shading(leaf_transmission, branches_block)``, docs/model.md §10) and labels
+    every pulse with ``n_shaded``."""
 
     _path: ClassVar[str] = "sonar"
     beamwidth_deg: Dist = _f(Dist.fixed(30.0), "dist", lo=0.0, hi=180.0, lo_open=True, hi_open=True)
@@ -463,6 +473,11 @@ class SonarSpec(_Section):
     ear_separation_m: float | None = _f(None, "opt_float", lo=0.0)
     ear_yaw_deg: float | None = _f(None, "opt_float", lo=-180.0, hi=180.0)
     ear_pitch_deg: float | None = _f(None, "opt_float", lo=-90.0, hi=90.0)
+    shading: bool = _f(False, "bool", omit_default=True)
+    leaf_transmission: float = _f(
+        _DEFAULT_LEAF_TRANSMISSION, "float", lo=0.0, hi=1.0, omit_default=True
+    )
+    branches_block: bool = _f(True, "bool", omit_default=True)
 
     def _check(self) -> None:
         if self.ear_separation_m is None and (
@@ -491,6 +506,7 @@ class SonarSpec(_Section):
 
     def make(self, beamwidth_deg: float):
         """A ``batecho.Sonar`` with this grid and ``beamwidth_deg``."""
+        from ..sonar.shading import Shading
         from ..sonar.sonar import Sonar
 
         make: Any = Sonar
@@ -517,6 +533,7 @@ class SonarSpec(_Section):
             window=self.window,
             min_range_m=self.min_range_m,
             too_close=self.too_close,
+            shading=Shading(self.leaf_transmission, self.branches_block) if self.shading else None,
         )
 
     def time_slice(self) -> tuple[int, int]:
@@ -689,6 +706,16 @@ class DatasetSpec(_Section):
                 self.call.make(self.sonar.fs)
             except (TypeError, ValueError) as exc:
                 raise SpecError(f"call: {exc}") from None
+        if self.scene.kind != "forest" and self.scene.forest.branches:
+            raise SpecError(
+                f'scene.forest.branches = true needs scene.kind = "forest" (the '
+                f"{self.scene.kind!r} scenes have no trees)"
+            )
+        if self.sonar.ear_separation_m is not None and (self.sonar.shading or self.has_wood):
+            raise SpecError(
+                "sonar.ear_separation_m (two ears) with sonar.shading or scene.forest.branches: "
+                "receivers at their own places hear leaves only, not yet wood or shading"
+            )
         if self.scene.reuse == "pool" and self.scene.pool_size > self.n_samples:
             raise SpecError(
                 f"scene.pool_size = {self.scene.pool_size} exceeds n_samples = {self.n_samples}"
@@ -753,14 +780,16 @@ class DatasetSpec(_Section):
         return DatasetSpec.from_dict(data)
 
     # -- output ----------------------------------------------------------------------
-    def to_dict(self) -> dict[str, Any]:
-        """Nested plain data (every field; distributions as numbers or one-key tables)."""
-        return self._to_dict()
+    def to_dict(self, full: bool = False) -> dict[str, Any]:
+        """Nested plain data (distributions as numbers or one-key tables): every field, but
+        the later optional ones (shading, branches) at their defaults unless ``full``."""
+        return self._to_dict(full)
 
-    def to_toml(self) -> str:
-        """The canonical TOML text: every field, fixed order. ``from_toml_string`` of it gives
-        an equal spec, and its SHA-256 (:attr:`sha256`) identifies the spec."""
-        return _dump_toml(self.to_dict())
+    def to_toml(self, full: bool = False) -> str:
+        """The canonical TOML text: every field in a fixed order (the later optional ones at
+        their defaults only with ``full``). ``from_toml_string`` of it gives an equal spec, and
+        the SHA-256 of the canonical text (:attr:`sha256`) identifies the spec."""
+        return _dump_toml(self.to_dict(full))
 
     @property
     def sha256(self) -> str:
@@ -768,6 +797,11 @@ class DatasetSpec(_Section):
         return hashlib.sha256(self.to_toml().encode("utf-8")).hexdigest()
 
     # -- derived -----------------------------------------------------------------------
+    @property
+    def has_wood(self) -> bool:
+        """Whether the scenes hold branches (forests with ``scene.forest.branches``)."""
+        return self.scene.kind == "forest" and self.scene.forest.branches
+
     @property
     def chunk_size(self) -> int:
         return min(self.output.chunk_size, self.n_samples)

@@ -12,6 +12,8 @@ Layout (Zarr format 3, consolidated metadata; opens with ``xarray.open_zarr``)::
       n_leaves, nearest_range_m, lobe_mean_radius_m (sample, pulse)     per-pulse labels
       receiver (receiver,)            with two ears: every per-pulse variable above gains
                                       a receiver dimension after pulse (0 left, 1 right)
+      n_shaded (sample, pulse)                  with sonar.shading
+      nearest_wood_m, n_pieces (sample, pulse)  with scene.forest.branches
       position, forward, up (sample, pulse, xyz) m / unit vectors        the poses
       scene_index, beamwidth_deg, <pose and scene labels> (sample,)      per-sample labels
       chunk_checksum (chunk,) uint64                                     completion markers
@@ -164,6 +166,33 @@ def schema(spec: DatasetSpec) -> list[Var]:
             "m",
             "mean radius of the counting leaves (NaN: none counted)",
         ),
+    ]
+    pulse = ("sample", "pulse")  # (two ears and wood or shading are not combined)
+    if spec.sonar.shading:
+        out.append(
+            Var(
+                "n_shaded",
+                pulse,
+                "int32",
+                -1,
+                "1",
+                "counting leaves whose echo shading dimmed or silenced (docs/model.md §10)",
+            )
+        )
+    if spec.has_wood:
+        out += [
+            Var(
+                "nearest_wood_m",
+                pulse,
+                "float64",
+                nan,
+                "m",
+                "distance from the pulse to the nearest wood surface (trunk, branch or twig) "
+                "in the scene",
+            ),
+            Var("n_pieces", pulse, "int32", -1, "1", "branch pieces that counted for the pulse"),
+        ]
+    out += [
         Var("position", ("sample", "pulse", "xyz"), "float64", nan, "m", "pulse position"),
         Var("forward", ("sample", "pulse", "xyz"), "float64", nan, "1", "beam axis, unit"),
         Var("up", ("sample", "pulse", "xyz"), "float64", nan, "1", "sonar up, unit vector"),

@@ -16,6 +16,7 @@ from ..forest.clearance import (
     DEFAULT_MIN_CLEARANCE_M,
     ClearanceWarning,
     check_margin,
+    clearance_part,
     low_clearance,
 )
 from ..forest.scene import Scene, as_scene
@@ -41,6 +42,10 @@ class Echoes:
     With receivers of their own (``Sonar(receivers=...)``, ``R`` of them), every per-pose
     array has a receiver axis after the pose axis: ``spectrum`` (p, R, M), ``impulse``
     (p, R, n_samples), ``n_leaves`` (p, R).
+    With branches in the scene: ``wood_spectrum`` (p, M), the branches' share of ``spectrum``
+    (None without branches; :meth:`wood_impulse` is its impulse response), and ``n_pieces``
+    (p,), how many branch pieces counted. With shading: ``n_shaded`` (p,), how many counting
+    leaves it dimmed or silenced (zeros without shading).
     """
 
     spectrum: np.ndarray
@@ -53,6 +58,15 @@ class Echoes:
     #: For the echoes of one receiver taken from a sonar's receivers (:meth:`for_receiver`),
     #: its index there.
     receiver: int | None = None
+    wood_spectrum: np.ndarray | None = None
+    n_pieces: np.ndarray | None = None
+    n_shaded: np.ndarray | None = None
+
+    def __post_init__(self):
+        p = self.spectrum.shape[0]
+        for name in ("n_pieces", "n_shaded"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(p, dtype=np.int64))
 
     @property
     def ranges(self) -> np.ndarray:
@@ -89,6 +103,17 @@ class Echoes:
         from scipy.signal import hilbert
 
         return np.abs(hilbert(self.impulse, axis=-1))
+
+    def wood_impulse(self) -> np.ndarray | None:
+        """(p, n_samples) impulse response of the wood's share of the echo,
+        ``2 irfft(wood_spectrum, n)`` (None without branches)."""
+        if self.wood_spectrum is None:
+            return None
+        n = len(self.times)
+        k0 = int(np.rint(self.freqs[0] * n / self.sonar.fs))  # freqs[0] = k0 fs / n
+        full = np.zeros((len(self), n // 2 + 1), dtype=np.complex128)
+        full[:, k0 : k0 + self.wood_spectrum.shape[1]] = self.wood_spectrum
+        return 2.0 * np.fft.irfft(full, n, axis=-1)
 
     def __len__(self) -> int:
         return self.spectrum.shape[0]
@@ -164,7 +189,7 @@ def warn_low_clearance(scene: Scene, poses: Poses, min_clearance_m: float, stack
     if min_clearance_m <= 0:
         return
     d, idx = scene.clearance(poses.positions, return_index=True)
-    msg = low_clearance(d, lambda i: f"leaf {int(idx[i])}", poses.positions, min_clearance_m)
+    msg = low_clearance(d, lambda i: clearance_part(idx[i]), poses.positions, min_clearance_m)
     if msg is not None:
         warnings.warn(
             msg + "; move the flight, or pass min_clearance_m=0 to switch this check off",
@@ -182,7 +207,8 @@ def simulate(
     *,
     min_clearance_m: float = DEFAULT_MIN_CLEARANCE_M,
 ) -> Echoes:
-    """Echoes of ``scene`` (a Scene, or Leaves) for each pose in ``poses``.
+    """Echoes of ``scene`` (a Scene, Leaves, or anything with ``.scene()``) for each pose in
+    ``poses``.
 
     ``method``:
 
@@ -222,7 +248,7 @@ def simulate(
             sc._core, sonar._core, poses.positions, poses.forward, poses.up, poses.left
         )
         sonar = sonar.resolve(sonar.record_length_for(float(far.max())))
-    spec, imp, counts = _core.simulate(
+    spec, imp, counts, wood, pieces, shaded = _core.simulate(
         sc._core,
         sonar._core,
         poses.positions,
@@ -243,13 +269,16 @@ def simulate(
         n_leaves=counts.astype(np.int64),
         sonar=sonar,
         poses=poses,
+        wood_spectrum=wood,
+        n_pieces=pieces.astype(np.int64),
+        n_shaded=shaded.astype(np.int64),
     )
 
 
 def lobe_members(
     scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh", receiver: int | None = None
 ) -> np.ndarray:
-    """Indices (ascending, int64) of the leaves that count for one pose.
+    """Indices (ascending, int64) of the leaves that count for one pose (branches apart).
 
     ``search="bvh"`` traverses the BVH; ``"brute_force"`` tests every leaf. Both apply the same
     exact f64 test per leaf, so they return the same set. For a sonar with receivers of its
@@ -277,11 +306,46 @@ def lobe_members(
     )
 
 
+@dataclass(frozen=True)
+class LeafSights:
+    """What lies on the rays to the counting leaves of one pose (docs/model.md §10).
+
+    ``index`` (int64, ascending): the leaves that count; ``crossings`` (int64): how many other
+    leaf disks the open segment from the sonar to each one's centre crosses; ``blocked``
+    (bool): whether a branch cylinder lies across it.
+    """
+
+    index: np.ndarray
+    crossings: np.ndarray
+    blocked: np.ndarray
+
+
+def leaf_sights(
+    scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True
+) -> LeafSights:
+    """The sights of the leaves that count for one pose: the crossings and blocks that
+    shading turns into the factor ``tau^(2 m)`` or 0. Rays are cast with the scene's BVH and
+    a light buffer round the sonar, in parallel; every candidate crossing is decided by the
+    exact test of docs/model.md §10. Branches are tested only with ``branches_block``."""
+    sonar, pose = _check(sonar, pose)
+    if len(pose) != 1:
+        raise ValueError(f"leaf_sights takes one pose; got {len(pose)} (index it: poses[i])")
+    if not isinstance(branches_block, bool):
+        raise TypeError(f"branches_block must be True or False, got {branches_block!r}")
+    sc = as_scene(scene)
+    ids, crossings, blocked = _core.leaf_sights(
+        sc._core, sonar._core, pose.positions, pose.forward, pose.up, pose.left, branches_block
+    )
+    return LeafSights(ids, crossings.astype(np.int64), blocked)
+
+
 __all__ = [
     "DEFAULT_METHOD",
     "DEFAULT_TOL",
     "METHODS",
     "Echoes",
+    "LeafSights",
+    "leaf_sights",
     "lobe_members",
     "simulate",
     "warn_low_clearance",

@@ -23,6 +23,7 @@ __all__ = [
     "SolidClearance",
     "bark_clearance",
     "check_margin",
+    "clearance_part",
     "low_clearance",
     "point_triangle_distances",
     "solid_clearance",
@@ -121,10 +122,18 @@ def bark_clearance(
     return dist, index
 
 
+def clearance_part(index: Any) -> str:
+    """``"leaf i"`` or ``"branch j"`` for an index from :meth:`Scene.clearance` (``-1 - j``
+    for branch ``j``)."""
+    i = int(index)
+    return f"leaf {i}" if i >= 0 else f"branch {-1 - i}"
+
+
 @dataclass(frozen=True)
 class SolidClearance:
-    """Distances (m) from each point to the nearest leaf (``leaf``, index ``leaf_index``) and
-    to the nearest bark triangle (``bark``, ``inf`` without bark or when a leaf is nearer)."""
+    """Distances (m) from each point to the nearest leaf or branch (``leaf``, index
+    ``leaf_index``, ``-1 - j`` for branch ``j``) and to the nearest bark triangle (``bark``,
+    ``inf`` without bark or when a leaf or branch is nearer)."""
 
     leaf: np.ndarray
     leaf_index: np.ndarray
@@ -136,10 +145,11 @@ class SolidClearance:
         return np.minimum(self.leaf, self.bark)
 
     def part(self, i: int) -> str:
-        """What point ``i`` is nearest to: ``"leaf <index>"`` or ``"bark"``."""
+        """What point ``i`` is nearest to: ``"leaf <index>"``, ``"branch <index>"`` or
+        ``"bark"``."""
         if self.bark[i] < self.leaf[i]:
             return "bark"
-        return f"leaf {int(self.leaf_index[i])}"
+        return clearance_part(self.leaf_index[i])
 
 
 def low_clearance(

@@ -8,7 +8,8 @@ base) and, per tree, a ground position (x, y) (m), a turn about the vertical thr
 
 With ``variants=k`` a forest grows ``k`` trees once and reuses them (instancing): a forest of
 millions of leaves then builds in seconds, and only the placed leaves are held (for
-:meth:`Forest.scene`); the bark is built only when asked for (:meth:`Forest.bark`).
+:meth:`Forest.scene`); the bark is built only when asked for (:meth:`Forest.bark`), and so
+are the trees' woody skeletons (:attr:`Forest.branches`, for ``scene(branches=True)``).
 
 Seeds: ``from_ipp`` splits its ``rng`` into three child generators (``rng.spawn(3)``, i.e. the
 generator's ``SeedSequence`` children 0, 1, 2 for a fresh generator): positions, placement
@@ -32,6 +33,7 @@ from .._geometry import rot_z
 from .._random import generator, int_seed, spawn
 from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
 from .._validate import integer, positive_scalar
+from ..trees.branches import Branches
 from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
 from ..trees.objfile import write_obj
@@ -143,6 +145,8 @@ class Forest:
         self.params: dict[str, Any] = dict(params or {})
         self._leaves: Leaves | None = None
         self._scene: Scene | None = None
+        self._wood_scene: Scene | None = None
+        self._branches: Branches | None = None
         self._bark: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     # -- construction ---------------------------------------------------------------------------
@@ -417,11 +421,47 @@ class Forest:
             self._leaves = Leaves._trusted(c, nv, r)
         return self._leaves
 
-    def scene(self) -> Scene:
-        """The :class:`~batecho.Scene` of all leaves (built once)."""
-        if self._scene is None:
-            self._scene = Scene(self.leaves)
-        return self._scene
+    @property
+    def branches(self) -> Branches | None:
+        """The woody skeletons of all trees in place, tree by tree in position order (built
+        once; radii scale with each tree), or None where no tree has one (OBJ trees)."""
+        if self._branches is None:
+            starts, ends, radii = [], [], []
+            for i in range(self.n_trees):
+                wood = self._variants[self._vi[i]].branches
+                if wood is None:
+                    continue
+                rot, b, t, s = self._move(i)
+                starts.append((wood.starts - b) @ (s * rot.T) + (b + t))
+                ends.append((wood.ends - b) @ (s * rot.T) + (b + t))
+                radii.append(wood.radii * s)
+            if not starts:
+                return None
+            self._branches = Branches._trusted(
+                np.concatenate(starts), np.concatenate(ends), np.concatenate(radii)
+            )
+        return self._branches
+
+    def scene(self, branches: bool = False) -> Scene:
+        """The :class:`~batecho.Scene` of all leaves (built once); with ``branches=True``, of
+        the leaves and the trees' woody skeletons (:attr:`branches`), which then echo and may
+        block (docs/model.md §9-§10). The default is the paper's model: leaves alone."""
+        if not isinstance(branches, bool):
+            raise TypeError(f"branches must be True or False, got {branches!r}")
+        if not branches:
+            if self._scene is None:
+                self._scene = Scene(self.leaves)
+            return self._scene
+        if self._wood_scene is None:
+            wood = self.branches
+            if wood is None:
+                raise ValueError(
+                    "no tree of this forest has a woody skeleton (trees loaded from OBJ files "
+                    "have silent wood; give them one with Tree.with_branches), so "
+                    "scene(branches=True) has no branches to place"
+                )
+            self._wood_scene = Scene(self.leaves, branches=wood)
+        return self._wood_scene
 
     def reaches(self, altitude: float | None = None, band: float = 0.0) -> np.ndarray:
         """(t,) each tree's horizontal reach from its trunk axis, m: the farthest its leaf

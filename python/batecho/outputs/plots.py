@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "WOOD_COLOR",
     "echo_image_reference",
     "lobe_surface",
     "plot_echo_image",
@@ -29,6 +30,9 @@ __all__ = [
 LEAF_COLOR = "#3a7d2c"
 MEMBER_COLOR = "#d62728"
 BARK_COLOR = "#6b4a2f"
+#: Branches (cylinder segments) in scene pictures, and the wood's echoes in echo images.
+WOOD_COLOR = "#8b5a2b"
+WOOD_ECHO_COLOR = "#00e5ff"
 PATH_COLOR = "#1f4e9e"
 IMPULSE_COLOR = "#9bb7d9"
 ENVELOPE_COLOR = "#1b2a49"
@@ -262,6 +266,7 @@ def plot_echo_image(
     xlabel: str | None = None,
     title: str | None = None,
     percentile: float = ECHO_IMAGE_PERCENTILE,
+    wood: bool = True,
 ):
     """Echo "image" along a flight: the envelope in dB, pulses (x) by range (y).
 
@@ -272,7 +277,8 @@ def plot_echo_image(
     ``dynamic_range_db`` below. ``x`` gives the pulses' coordinates (e.g. pulse times in s, the
     angle on a circle in deg or the distance to a target in m; distinct) with ``xlabel``; by
     default the pulse index. Pulses with no leaf in the lobe show as empty (exactly zero)
-    columns.
+    columns. With ``wood`` and echoes of a scene with
+    branches, the wood's own echo is outlined on top (:func:`overlay_wood_echoes`).
     """
     plt = _plt()
     fig = None
@@ -309,12 +315,50 @@ def plot_echo_image(
     ax.set_xlabel(xlabel or ("pulse" if x is None else "x"))
     ax.set_ylabel("range (m)")
     ax.set_ylim(0, rng[keep][-1])
+    if wood and getattr(echoes, "wood_spectrum", None) is not None:
+        overlay_wood_echoes(ax, echoes, xs, keep)
     if title:
         ax.set_title(title, fontsize=10)
     (fig or ax.figure).colorbar(
         im, ax=ax, extend="max", label=f"envelope (dB re its {percentile:g}th percentile)"
     )
     return fig or ax.figure
+
+
+def overlay_wood_echoes(
+    ax, echoes, x: np.ndarray, keep: np.ndarray, level_db: float = -12.0
+) -> None:
+    """Mark the wood's share of the echoes (trunks and branches) on an echo image: a tick across
+    each pulse's column at every peak of the wood's envelope within ``level_db`` of that pulse's
+    strongest wood echo (pulses at ``x``, one per pulse; ranges where ``keep``), fainter for
+    pulses whose wood is weaker than the flight's strongest."""
+    from scipy.signal import hilbert
+
+    env = np.abs(hilbert(echoes.wood_impulse(), axis=-1))[:, keep]
+    top = float(env.max())
+    if not top > 0:
+        return
+    rng = echoes.ranges[keep]
+    order = np.argsort(x, kind="stable")
+    edges = _edges(np.asarray(x, dtype=np.float64)[order])
+    for col, i in enumerate(order):
+        peak_i = float(env[i].max())
+        if not peak_i > 0:
+            continue
+        d = _db(env[i], peak_i)
+        inner = d[1:-1]
+        peak = np.flatnonzero((inner >= d[:-2]) & (inner > d[2:]) & (inner >= level_db)) + 1
+        w = 0.08 * (edges[col + 1] - edges[col])
+        ax.hlines(
+            rng[peak],
+            edges[col] + w,
+            edges[col + 1] - w,
+            colors=WOOD_ECHO_COLOR,
+            linewidths=1.1,
+            alpha=float(np.clip(1.0 + _db(np.asarray(peak_i), top) / 60.0, 0.3, 1.0)),
+        )
+    ax.plot([], [], color=WOOD_ECHO_COLOR, lw=1.1, label="wood echoes")
+    ax.legend(loc="upper right", fontsize=7)
 
 
 def plot_spectrogram(
@@ -424,17 +468,57 @@ def lobe_surface(sonar, pose, n_alpha: int = 36, n_phi: int = 48):
     return pts[..., 0], pts[..., 1], pts[..., 2]
 
 
+def _scene_branches(obj: Any, branches: Any, bark_drawn: bool):
+    """The branches to draw (see :func:`plot_scene_3d`), or None."""
+    from ..trees.branches import Branches
+
+    if branches is False:
+        return None
+    if isinstance(branches, Branches):
+        return branches
+    if branches is None and bark_drawn:
+        return None
+    own = getattr(obj, "branches", None)
+    return own if isinstance(own, Branches) else None
+
+
+def draw_branches(ax, branches, max_segments: int = 6000) -> list[np.ndarray]:
+    """Draw branch segments on 3-D axes as lines whose width follows their radius (the
+    thickest ``max_segments``); returns their bounds ``[lo, hi]``."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    s, e, r = branches.starts, branches.ends, branches.radii
+    k = np.arange(len(r))
+    if len(k) > max_segments:
+        k = np.sort(np.argsort(-r, kind="stable")[: int(max_segments)])
+    lw = np.clip(40.0 * r[k], 0.4, 6.0)
+    ax.add_collection3d(
+        Line3DCollection(
+            np.stack([s[k], e[k]], axis=1),
+            colors=WOOD_COLOR,
+            linewidths=lw,
+            alpha=0.9,
+            label=f"branches ({len(r)})",
+        )
+    )
+    both = np.concatenate([s, e])
+    return [both.min(axis=0), both.max(axis=0)]
+
+
 def _scene_leaves(obj: Any):
     from ..forest.scene import Scene
+    from ..trees.branches import Branches
     from ..trees.leaves import Leaves
 
     if isinstance(obj, Leaves):
         return obj
     if isinstance(obj, Scene):
-        return obj.leaves
+        return obj.leaves  # (None in a scene of branches alone)
     lv = getattr(obj, "leaves", None)
     if isinstance(lv, Leaves):
         return lv
+    if isinstance(getattr(obj, "branches", None), Branches):
+        return None
     if callable(getattr(obj, "scene", None)):
         return obj.scene().leaves
     raise TypeError(
@@ -504,9 +588,11 @@ def plot_scene_3d(
     title: str | None = None,
     elev: float = 22.0,
     azim: float = -60.0,
+    branches: Any = None,
+    max_branches: int = 6000,
     lobe_labels: Sequence[str] | None = None,
 ):
-    """The 3-D scene: leaves, bark, the flight path, the pulses, the sonar lobes.
+    """The 3-D scene: leaves, bark or branches, the flight path, the pulses, the sonar lobes.
 
     ``leaves_or_scene``: Leaves, a Scene, or anything with ``.leaves`` (a tree, a forest, an OBJ
     Mesh). At most ``max_points`` leaf centres are drawn (a fixed random subset; the legend
@@ -519,7 +605,10 @@ def plot_scene_3d(
     a timed trajectory or a Flight, drawn as a line. ``bark``: None (the object's own bark:
     ``bark_vertices``/``bark_faces``, or a forest's ``bark()``), False, ``(vertices, faces)``
     or an object with those; at most ``max_bark_faces`` triangles, the largest (the legend
-    says so). The legend, below the axes, keys each lobe to its pulse (or to ``lobe_labels``,
+    says so). ``branches``: the woody skeleton as segments (:func:`draw_branches`): None (the
+    object's own, a Scene's, Tree's or Forest's, where no bark mesh is drawn), False, True (the
+    object's own, always) or a :class:`~batecho.Branches`; at most ``max_branches``, the
+    thickest. The legend, below the axes, keys each lobe to its pulse (or to ``lobe_labels``,
     one per lobe drawn). Axes have equal scale, with ticks in proportion to their length.
     """
     plt = _plt()
@@ -532,20 +621,22 @@ def plot_scene_3d(
     if ax is None:
         fig = plt.figure(figsize=(8, 7), constrained_layout=True)
         ax = fig.add_subplot(projection="3d")
-    c = leaves.centers
-    bounds = [c.min(axis=0), c.max(axis=0)]
-    shown = _subsample(np.arange(len(leaves)), int(max_points))
-    ax.scatter(
-        c[shown, 0],
-        c[shown, 1],
-        c[shown, 2],
-        s=1.0,
-        c=LEAF_COLOR,
-        alpha=0.35,
-        linewidths=0,
-        depthshade=False,
-        label=_drawn("leaves", len(leaves), len(shown)),
-    )
+    # (a scene of branches alone has no leaves)
+    c = np.zeros((0, 3)) if leaves is None else leaves.centers
+    bounds = [c.min(axis=0), c.max(axis=0)] if len(c) else []
+    if len(c):
+        shown = _subsample(np.arange(len(c)), int(max_points))
+        ax.scatter(
+            c[shown, 0],
+            c[shown, 1],
+            c[shown, 2],
+            s=1.0,
+            c=LEAF_COLOR,
+            alpha=0.35,
+            linewidths=0,
+            depthshade=False,
+            label=_drawn("leaves", len(c), len(shown)),
+        )
     extra: list = []  # legend entries of what scatter and plot do not label themselves
     bk = _bark_arrays(leaves_or_scene, bark)
     if bk is not None:
@@ -563,7 +654,10 @@ def plot_scene_3d(
         )
         extra.append(Patch(facecolor=BARK_COLOR, alpha=0.6, label=label))
         bounds += [v.min(axis=0), v.max(axis=0)]
-    if members is not None:
+    wood = _scene_branches(leaves_or_scene, branches, bark_drawn=bk is not None)
+    if wood is not None:
+        bounds += draw_branches(ax, wood, max_branches)
+    if members is not None and len(c):
         parts = members if isinstance(members, (list, tuple)) else [members]
         arrs = [np.asarray(m, dtype=np.int64).ravel() for m in parts]
         idx = np.unique(np.concatenate(arrs)) if arrs else np.zeros(0, np.int64)

@@ -116,6 +116,14 @@ class SceneFile:
                         kw[key] = Atmosphere(**val)
                     except (TypeError, ValueError) as exc:
                         raise self._err(f"[sonar.absorption] {exc}") from None
+            elif key == "shading":
+                if val:
+                    from ..sonar.shading import Shading
+
+                    try:
+                        kw[key] = Shading(**val)
+                    except (TypeError, ValueError) as exc:
+                        raise self._err(f"[sonar.shading] {exc}") from None
             elif key == "band_hz":
                 kw[key] = tuple(val)
             else:

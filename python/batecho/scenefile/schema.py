@@ -123,6 +123,10 @@ _ATMOSPHERE = {
     "relative_humidity": _Opt("float"),
     "pressure_pa": _Opt("float"),
 }
+_SHADING = {
+    "leaf_transmission": _Opt("float", doc="one-way amplitude past one leaf (default 0.6)"),
+    "branches_block": _Opt("bool", doc="a branch on the ray silences (default true)"),
+}
 _SONAR = {
     "beamwidth_deg": _Opt("float", doc="full -3 dB beamwidth, deg (default 30)"),
     "horseshoe_bat_khz": _Opt("float", doc="beamwidth from the horseshoe-bat fit at this kHz"),
@@ -145,9 +149,11 @@ _SONAR = {
     "min_range_m": _Opt("float"),
     "too_close": _Opt("str", choices=("raise", "skip")),
     "min_ka": _Opt("float"),
+    "branch_piece_scale": _Opt("float", doc="in (0, 1]: branch pieces this much shorter"),
     "beam": _table(_BEAM),
     "receiver": _table(_BEAM),
     "absorption": _table(_ATMOSPHERE),
+    "shading": _table(_SHADING),
     "receivers": _Opt("receivers", doc="[[sonar.receivers]] offset_m = [f, l, u], [.beam]"),
     "binaural": _Opt("binaural", doc="separation_m, ear_yaw_deg, ear_pitch_deg, [.ear_beam]"),
 }

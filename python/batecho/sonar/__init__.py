@@ -1,5 +1,5 @@
-"""The sonar: beampatterns, the lobe rule, the frequency grid, the leaf model's parameters and
-atmospheric absorption, receivers of their own, the emitted call."""
+"""The sonar: beampatterns, the lobe rule, the frequency grid, the leaf model's parameters,
+atmospheric absorption, shading, receivers of their own, the emitted call."""
 
 from __future__ import annotations
 
@@ -7,14 +7,17 @@ from .absorption import Atmosphere, iso9613_alpha_db_per_m
 from .beam import Beam, horseshoe_bat_beamwidth_deg, sigma_from_beamwidth_deg
 from .call import Call
 from .receivers import Receiver
+from .shading import DEFAULT_LEAF_TRANSMISSION, Shading
 from .sonar import DEFAULT_BEAMWIDTH_DEG, Sonar
 
 __all__ = [
     "DEFAULT_BEAMWIDTH_DEG",
+    "DEFAULT_LEAF_TRANSMISSION",
     "Atmosphere",
     "Beam",
     "Call",
     "Receiver",
+    "Shading",
     "Sonar",
     "horseshoe_bat_beamwidth_deg",
     "iso9613_alpha_db_per_m",

@@ -1,6 +1,6 @@
 """The sonar: every parameter of the echo model -- beams, lobe rule, frequency grid, leaf model,
-absorption -- checked and handed to the Rust core, and its record length (docs/model.md sections
-2-5).
+absorption, shading -- checked and handed to the Rust core, and its record length
+(docs/model.md sections 2-5, 9, 10).
 
 Angles are in degrees at this edge (names ending ``_deg``) and radians inside; lengths in m,
 frequencies in Hz, times in s.
@@ -20,6 +20,7 @@ from .._validate import finite_scalar, integer, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
 from .receivers import MAX_RECEIVERS, Receiver, binaural_receivers
+from .shading import Shading
 
 _LOBES = ("detectable", "cone")
 _MODELS = ("paper", "physical_optics")
@@ -67,7 +68,14 @@ class Sonar:
 
     Guards: a leaf closer than ``min_range_m`` to a pulse raises (``too_close="raise"``) or is
     left out (``"skip"``); leaves with ``k a < min_ka`` at the band's lowest frequency are
-    refused (the leaf models do not hold in the Rayleigh regime).
+    refused (the leaf models do not hold in the Rayleigh regime). The same holds for branch
+    pieces and branch radii.
+
+    Forests: ``shading`` None (the paper's model: every scatterer echoes as though it stood
+    alone) or a :class:`Shading` (leaves and branches in the way dim or silence an echo,
+    docs/model.md §10). ``branch_piece_scale`` in (0, 1] shortens the pieces branches are cut
+    into below the longest the rule allows (docs/model.md §9), to check that they are short
+    enough.
     """
 
     beamwidth_deg: float | None = None
@@ -94,6 +102,8 @@ class Sonar:
     too_close: str = "raise"
     min_ka: float = 0.5
     record_tail_s: float = 1e-3
+    shading: Shading | None = None
+    branch_piece_scale: float = 1.0
     _core: Any = field(default=None, init=False, repr=False, compare=False)
     # n_samples="auto": the fixed-record sonars already resolved, by record length (see resolve)
     _resolved: Any = field(default=None, init=False, repr=False, compare=False)
@@ -141,6 +151,13 @@ class Sonar:
             raise ValueError(f"too_close must be 'raise' or 'skip', got {self.too_close!r}")
         if self.absorption is not None and not isinstance(self.absorption, Atmosphere):
             raise TypeError("absorption must be None or a batecho.Atmosphere")
+        if self.shading is not None and not isinstance(self.shading, Shading):
+            raise TypeError(
+                f"shading must be None or a batecho.Shading, got {type(self.shading).__name__}"
+            )
+        scale = finite_scalar(self.branch_piece_scale, "branch_piece_scale")
+        if not 0.0 < scale <= 1.0:
+            raise ValueError(f"branch_piece_scale must be in (0, 1], got {scale!r}")
         auto = isinstance(self.n_samples, str)
         if auto and self.n_samples != "auto":
             raise ValueError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
@@ -213,6 +230,8 @@ class Sonar:
             self.too_close,
             num["min_ka"],
             None if self.receivers is None else [r._core_tuple() for r in self.receivers],
+            None if self.shading is None else self.shading._core_tuple(),
+            scale,
         )
         object.__setattr__(self, "_core", core)
         object.__setattr__(self, "_resolved", {})

@@ -1,8 +1,9 @@
-"""Trees: leaf disks, bark meshes read from and written to OBJ files, L-systems, and trees
-grown the paper's way or the authors' L-system way."""
+"""Trees: leaf disks, branches as cylinder segments, bark meshes read from and written to OBJ
+files, L-systems, and trees grown the paper's way or the authors' L-system way."""
 
 from __future__ import annotations
 
+from .branches import Branches
 from .branching import Branching, trunk_branching
 from .grow import grow_tree
 from .leaves import MAX_COORDINATE_M, Leaves, as_leaves
@@ -20,6 +21,7 @@ __all__ = [
     "REFERENCE_TREE",
     "BranchLayout",
     "BranchTemplate",
+    "Branches",
     "Branching",
     "LSystem",
     "Leaves",

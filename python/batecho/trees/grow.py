@@ -22,6 +22,10 @@ trees.
   Gaussian of ``bend_sd_deg`` per component. Arc lengths are kept; bark rings and units turn
   with the tangent (an isometric bend).
 
+The woody skeleton (the reference's bark tubes' axes, with their radii) moves with the bark:
+its points ride on the axis or hang with their units like the bark's vertices, so a grown
+tree's ``branches`` follow its randomised bark.
+
 With ``length_sd = bend_sd_deg = droop_deg = slide_sd = 0`` and ``length_scale = 1`` each
 branch is the reference branch moved rigidly (``x -> o + Q (x - base)``), where ``Q`` turns the
 chord's azimuth and then its polar angle into ``d``'s (so a branch's upper side stays up).
@@ -31,6 +35,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -69,8 +74,8 @@ def _deform(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Transport (``rot`` about the template's base, which goes to the origin), scale the axis
     by ``f``, slide the units by ``slide`` (m, per unit) and bend by the rotation vector
-    ``bend`` (rad). Returns (points, leaf normals, axis), points = vertices then leaf centres,
-    relative to the branch point."""
+    ``bend`` (rad). Returns (points, leaf normals, axis), points = vertices, skeleton points,
+    then leaf centres, relative to the branch point."""
     anchor, unit, offset = tpl._hang
     axis = (tpl.axis - tpl.base) @ rot.T
     seg = np.diff(axis, axis=0)
@@ -80,7 +85,8 @@ def _deform(
     length = float(arc[-1])
     off = offset @ rot.T
     normals = tpl.leaf_normals @ rot.T
-    nv = len(tpl.vertices)
+    # (points below nv are bark vertices and skeleton points, the rest leaf centres)
+    nv = len(tpl.vertices) + len(tpl.skeleton_points)
 
     # new anchors (arc length on the scaled axis)
     t_new = f * anchor
@@ -190,6 +196,13 @@ def grow_tree(
     ref = load_reference(reference)
     if not ref.branches:
         raise ValueError("the reference tree has no first-level branches")
+    if not ref.has_skeleton:
+        warnings.warn(
+            "the reference tree has no woody skeleton (an OBJ without its JSON sidecar), so the "
+            "grown tree's wood is silent (Tree.branches is None)",
+            UserWarning,
+            stacklevel=2,
+        )
     if branch_choice not in ("height", "random"):
         raise ValueError(f"branch_choice must be 'height' or 'random', got {branch_choice!r}")
     h_ref = ref.trunk_height
@@ -252,9 +265,16 @@ def grow_tree(
         bends[i] = bend
         pts, normals, axis = _deform(tpl, rot, float(factors[i]), bend, ssd * z_slide)
         origin = branching.origins[i] - branching.trunk_base
-        nv = len(tpl.vertices)
+        nv, ns = len(tpl.vertices), len(tpl.skeleton_points)
         placed.append(
-            Placed(pts[:nv] + origin, pts[nv:] + origin, normals, int(choice[i]), axis + origin)
+            Placed(
+                pts[:nv] + origin,
+                pts[nv + ns :] + origin,
+                normals,
+                int(choice[i]),
+                axis + origin,
+                pts[nv : nv + ns] + origin,
+            )
         )
     layout = BranchLayout(
         origins=frozen(branching.origins - branching.trunk_base + b0),

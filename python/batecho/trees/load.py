@@ -1,15 +1,17 @@
 """A user's tree from an OBJ file, as it is: bark groups named like ``trunk`` are the trunk,
-the others its first-level branches, and each leaf belongs to the branch it hangs from."""
+the others its first-level branches, and each leaf belongs to the branch it hangs from. Its
+wood is silent: a bark mesh says nothing batecho can trust about the cylinders under it."""
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from .objfile import load_obj
+from .objfile import ObjWarning, load_obj
 from .reference_tree import nearest
 from .tree import Tree
 
@@ -28,7 +30,12 @@ def load_tree(
     trunk, the other bark groups its first-level branches. A leaf belongs to the branch whose
     name its group's name contains (as in the ``leaves_branch_00`` groups that
     :meth:`Tree.to_obj` writes), else to the branch of its nearest bark vertex (-1 for the
-    trunk). The base is the mean of the lowest trunk (or bark) vertices, at their lowest z."""
+    trunk). The base is the mean of the lowest trunk (or bark) vertices, at their lowest z.
+
+    The tree has no woody skeleton (``branches`` is None): its bark is drawn and written, but
+    its wood does not echo or block (docs/model.md §9). An :class:`ObjWarning` says so when the
+    file has bark; give the skeleton, if you know it, with
+    ``tree.with_branches(batecho.Branches(starts, ends, radii))``."""
     mesh = load_obj(
         path, leaf_patterns=leaf_patterns, up=up, per=per, scale=scale, transform=transform
     )
@@ -72,6 +79,14 @@ def load_tree(
     else:
         c = mesh.leaves.centers
         base = np.array([c[:, 0].mean(), c[:, 1].mean(), c[:, 2].min()])
+    if len(mesh.bark_faces):
+        warnings.warn(
+            f"{path}: the tree's bark is a mesh without a skeleton, so its wood is silent "
+            "(it neither echoes nor blocks); give its skeleton with "
+            "tree.with_branches(batecho.Branches(starts, ends, radii)) if you know it",
+            ObjWarning,
+            stacklevel=2,
+        )
     return Tree(
         leaves=mesh.leaves,
         bark_vertices=mesh.bark_vertices,

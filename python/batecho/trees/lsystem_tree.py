@@ -1,5 +1,6 @@
 """The authors' ginkgo-like L-system tree (docs/model.md §7): bark tubes around the turtle's
-segments and clusters of leaf disks at its leaf nodes."""
+segments, the segments themselves as its woody skeleton, and clusters of leaf disks at its leaf
+nodes."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import numpy as np
 from .._random import generator, seed_record
 from .._validate import finite_scalar, frozen, integer, point3, positive_scalar
 from ._shape import unit_rows
+from .branches import Branches
 from .leaves import Leaves
 from .lsystem import LSystem
 from .tree import BranchLayout, Tree
@@ -80,7 +82,8 @@ def grow_lsystem_tree(
     echo model refuses radii under ~0.45 mm). The chain of centre branches from the trunk is
     the trunk (leader); each lateral leaving it starts a first-level branch (``branch_00`` ...
     in growth order). Bark: open ``bark_sides``-gon tubes around the segments, radius
-    ``trunk_radius * width_contraction**level`` m. ``angle_jitter_deg`` (uniform half-width) and
+    ``trunk_radius * width_contraction**level`` m; the turtle's segments with those radii are
+    the tree's woody skeleton (``Tree.branches``). ``angle_jitter_deg`` (uniform half-width) and
     ``length_jitter`` (relative) randomise the angles and lengths.
     """
     gen = generator(rng)
@@ -215,7 +218,8 @@ def grow_lsystem_tree(
         branch_names=names[1:],
         base=b0,
         params=params,
-        branches=layout,
+        layout=layout,
+        branches=Branches(seg.starts, seg.ends, r),
     )
 
 

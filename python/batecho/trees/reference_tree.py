@@ -8,11 +8,13 @@ of the branch's axis, its sub-branches and their twigs) and one leaf group per b
 (``leaves_branch_00`` ...). The sidecar ``reference_tree.json`` describes each branch's structure:
 its *axis* polyline (starting on the trunk axis), how many of the group's bark triangles belong
 to the axis tube, and the sub-branch *units* (a sub-branch with its twigs and leaves) with their
-anchors, arc lengths along the axis. For an OBJ without such a sidecar the structure is derived
+anchors, arc lengths along the axis, and the woody skeleton: every bark tube's axis with the
+bark's radius along it, which a grown tree keeps as its :class:`~batecho.Branches`. For an OBJ
+without such a sidecar the structure is derived
 (:func:`load_reference`): bark groups whose name contains ``trunk`` are the trunk, every other
 bark group is a first-level branch whose axis is the straight line from the trunk axis to the
 branch's farthest point, and the connected pieces of its bark (with the leaves nearest to them)
-are its units.
+are its units; such a reference has no skeleton, and trees grown from it have silent wood.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import functools
 import json
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +31,7 @@ import numpy as np
 
 from .._validate import frozen, point3
 from ._shape import arc_lengths, dedupe_polyline, point_at, project
+from .branches import Branches
 from .leaves import Leaves
 from .objfile import Mesh, load_obj
 from .tree import BranchLayout, Tree
@@ -49,6 +52,11 @@ class BranchTemplate:
     (bark vertices, then leaf centres) hang on the axis: ``unit`` -1 for the axis itself (the
     point rides on the axis at its own arc length ``anchor``), else the sub-branch unit, which
     hangs rigidly at ``unit_anchors[unit]``; ``offset`` is the point minus its anchor point.
+
+    The woody skeleton (empty when the reference has none): ``skeleton_points`` (q, 3) hang on
+    the axis like the bark's vertices (``skeleton_unit``), and ``skeleton_segments`` (s, 2)
+    join pairs of them into cylinders of ``skeleton_radii`` (s,), the bark's mean radius along
+    each.
     """
 
     name: str
@@ -65,6 +73,10 @@ class BranchTemplate:
     leaf_radii: np.ndarray
     leaf_unit: np.ndarray
     unit_anchors: np.ndarray
+    skeleton_points: np.ndarray
+    skeleton_unit: np.ndarray
+    skeleton_segments: np.ndarray
+    skeleton_radii: np.ndarray
 
     @property
     def length(self) -> float:
@@ -77,9 +89,10 @@ class BranchTemplate:
 
     @functools.cached_property
     def _hang(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(anchor arc length, unit, offset) of every point: vertices then leaf centres."""
-        pts = np.concatenate([self.vertices, self.leaf_centers])
-        unit = np.concatenate([self.vertex_unit, self.leaf_unit])
+        """(anchor arc length, unit, offset) of every point: vertices, skeleton points, then
+        leaf centres."""
+        pts = np.concatenate([self.vertices, self.skeleton_points, self.leaf_centers])
+        unit = np.concatenate([self.vertex_unit, self.skeleton_unit, self.leaf_unit])
         anchor = np.empty(len(pts))
         on_axis = unit < 0
         anchor[on_axis] = project(pts[on_axis], self.axis, self.arc)
@@ -91,7 +104,9 @@ class BranchTemplate:
 @dataclass(frozen=True, eq=False)
 class ReferenceTree:
     """A reference tree split into trunk and first-level branch templates (see
-    :func:`load_reference`). ``structure`` is ``"json"`` (from the sidecar) or ``"derived"``."""
+    :func:`load_reference`). ``structure`` is ``"json"`` (from the sidecar) or ``"derived"``.
+    ``trunk_skeleton`` (p, 4): the trunk tube's axis points and bark radii, rows
+    ``[x, y, z, r]`` (empty without a skeleton)."""
 
     mesh: Mesh
     trunk_base: np.ndarray
@@ -102,6 +117,12 @@ class ReferenceTree:
     branches: tuple[BranchTemplate, ...]
     structure: str
     source: Path | None = None
+    trunk_skeleton: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+    @property
+    def has_skeleton(self) -> bool:
+        """Whether the reference knows its woody skeleton (then grown trees have branches)."""
+        return len(self.trunk_skeleton) > 0 or any(len(b.skeleton_radii) for b in self.branches)
 
     @property
     def trunk_height(self) -> float:
@@ -136,9 +157,11 @@ class ReferenceTree:
 
     def _placed(self, k: int) -> Placed:
         b = self.branches[k]
-        pts = np.concatenate([b.vertices, b.leaf_centers]) - self.trunk_base
-        nv = len(b.vertices)
-        return Placed(pts[:nv], pts[nv:], b.leaf_normals, k, b.axis - self.trunk_base)
+        pts = np.concatenate([b.vertices, b.skeleton_points, b.leaf_centers]) - self.trunk_base
+        nv, ns = len(b.vertices), len(b.skeleton_points)
+        return Placed(
+            pts[:nv], pts[nv + ns :], b.leaf_normals, k, b.axis - self.trunk_base, pts[nv : nv + ns]
+        )
 
 
 def _sidecar(path: Path) -> dict[str, Any] | None:
@@ -258,6 +281,9 @@ def _from_sidecar(mesh: Mesh, doc: Mapping[str, Any], path: Path) -> ReferenceTr
         vunit = np.full(len(vid), -1, np.int64)
         vunit[local.reshape(-1)] = np.repeat(face_unit, 3)
         axis = dedupe_polyline(np.array(b["axis"], dtype=np.float64))
+        tubes = [(-1, b["axis_tube"])] if "axis_tube" in b else []
+        for u, unit_tubes in enumerate(b.get("subbranch_tubes", [])):
+            tubes += [(u, t) for t in unit_tubes]
         branches.append(
             _template(
                 b["name"],
@@ -269,6 +295,7 @@ def _from_sidecar(mesh: Mesh, doc: Mapping[str, Any], path: Path) -> ReferenceTr
                 mesh.leaves[lid] if len(lid) else None,
                 np.repeat(np.arange(len(nl)), nl),
                 anchors,
+                _skeleton(tubes, path),
             )
         )
     t_faces = mesh.bark_faces[~used_faces]
@@ -284,6 +311,44 @@ def _from_sidecar(mesh: Mesh, doc: Mapping[str, Any], path: Path) -> ReferenceTr
         branches=tuple(branches),
         structure="json",
         source=path,
+        trunk_skeleton=frozen(_rows4(trunk.get("tube", []), path)),
+    )
+
+
+def _rows4(rows: Any, path: Path) -> np.ndarray:
+    """A tube's rows ``[x, y, z, r]`` as a (p, 4) array, checked."""
+    a = np.asarray(rows, dtype=np.float64).reshape(-1, 4) if len(rows) else np.zeros((0, 4))
+    if len(a) == 1 or not np.isfinite(a).all() or (a[:, 3] <= 0).any():
+        raise ValueError(
+            f"{path}: a skeleton tube in the JSON sidecar needs two or more rows [x, y, z, r] "
+            "with finite coordinates and radii > 0; regenerate it with tools/make_reference_tree.py"
+        )
+    return a
+
+
+_Skeleton = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _skeleton(tubes: list[tuple[int, Any]], path: Path) -> _Skeleton:
+    """(points, unit of each point, segments, radii) of a branch's tubes ``(unit, rows)``: each
+    tube's consecutive points joined, a segment's radius the mean of its ends'."""
+    pts, units, segs, radii = [np.zeros((0, 3))], [np.zeros(0, np.int64)], [], []
+    n = 0
+    for u, rows in tubes:
+        a = _rows4(rows, path)
+        if not len(a):
+            continue
+        pts.append(a[:, :3])
+        units.append(np.full(len(a), u, np.int64))
+        k = np.arange(len(a) - 1)
+        segs.append(np.column_stack([k, k + 1]) + n)
+        radii.append(0.5 * (a[:-1, 3] + a[1:, 3]))
+        n += len(a)
+    return (
+        np.concatenate(pts),
+        np.concatenate(units),
+        np.concatenate(segs) if segs else np.zeros((0, 2), np.int64),
+        np.concatenate(radii) if radii else np.zeros(0),
     )
 
 
@@ -297,6 +362,7 @@ def _template(
     leaves: Leaves | None,
     leaf_unit: np.ndarray,
     anchors: np.ndarray,
+    skeleton: _Skeleton | None = None,
 ) -> BranchTemplate:
     arc = arc_lengths(axis)
     chord = axis[-1] - axis[0]
@@ -306,6 +372,14 @@ def _template(
         lc, ln, lr = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
     else:
         lc, ln, lr = leaves.centers, leaves.normals, leaves.radii
+    if skeleton is None:
+        skeleton = (
+            np.zeros((0, 3)),
+            np.zeros(0, np.int64),
+            np.zeros((0, 2), np.int64),
+            np.zeros(0),
+        )
+    sp, su, ss, sr = skeleton
     return BranchTemplate(
         name=name,
         base=frozen(axis[0]),
@@ -321,6 +395,10 @@ def _template(
         leaf_radii=frozen(lr),
         leaf_unit=frozen(leaf_unit, np.int64),
         unit_anchors=frozen(np.clip(anchors, 0.0, arc[-1])),
+        skeleton_points=frozen(sp),
+        skeleton_unit=frozen(su, np.int64),
+        skeleton_segments=frozen(ss, np.int64),
+        skeleton_radii=frozen(sr),
     )
 
 
@@ -449,13 +527,14 @@ def _derive(mesh: Mesh, trunk_pattern: str) -> ReferenceTree:
 @dataclass
 class Placed:
     """One branch in place, relative to the new trunk base: bark vertices, leaf centres and
-    normals, the template index and the final axis."""
+    normals, the template index, the final axis and the skeleton's points."""
 
     vertices: np.ndarray
     leaf_centers: np.ndarray
     leaf_normals: np.ndarray
     template: int
     axis: np.ndarray
+    skeleton: np.ndarray
 
 
 def assemble(
@@ -466,7 +545,9 @@ def assemble(
     layout: BranchLayout | None,
     params: dict[str, Any],
 ) -> Tree:
-    """Trunk (stretched to ``trunk_height``) plus the placed branches, at ``base``."""
+    """Trunk (stretched to ``trunk_height``) plus the placed branches, at ``base``; with the
+    reference's skeleton, the tree's :class:`~batecho.Branches` (the trunk's stretched like its
+    bark, the branches' from their placed points; the radii kept)."""
     zs = trunk_height / ref.trunk_height
     tv = ref.trunk_vertices - ref.trunk_base
     tv = tv * np.array([1.0, 1.0, zs]) + base
@@ -503,6 +584,7 @@ def assemble(
         cluster0 += tpl.n_units
     if not lc:
         raise ValueError("the tree has no leaves")
+    wood = _assembled_skeleton(ref, placed, zs, base)
     normals = np.concatenate(ln)
     leaves = Leaves._trusted(
         np.concatenate(lc), normals / np.linalg.norm(normals, axis=1)[:, None], np.concatenate(lr)
@@ -518,8 +600,36 @@ def assemble(
         branch_names=tuple(branch_names),
         base=base,
         params=params,
-        branches=layout,
+        layout=layout,
+        branches=wood,
     )
+
+
+def _assembled_skeleton(
+    ref: ReferenceTree, placed: list[Placed], zs: float, base: np.ndarray
+) -> Branches | None:
+    """The tree's skeleton from the reference's trunk (stretched by ``zs``) and the placed
+    branches' skeleton points, at ``base``; None without a skeleton."""
+    if not ref.has_skeleton:
+        return None
+    starts, ends, radii = [], [], []
+    t = ref.trunk_skeleton
+    if len(t):
+        pts = (t[:, :3] - ref.trunk_base) * np.array([1.0, 1.0, zs]) + base
+        starts.append(pts[:-1])
+        ends.append(pts[1:])
+        radii.append(0.5 * (t[:-1, 3] + t[1:, 3]))
+    for p in placed:
+        tpl = ref.branches[p.template]
+        seg = tpl.skeleton_segments
+        if len(seg):
+            pts = p.skeleton + base
+            starts.append(pts[seg[:, 0]])
+            ends.append(pts[seg[:, 1]])
+            radii.append(tpl.skeleton_radii)
+    s, e = np.concatenate(starts), np.concatenate(ends)
+    keep = np.einsum("ij,ij->i", e - s, e - s) > 0.0
+    return Branches(s[keep], e[keep], np.concatenate(radii)[keep])
 
 
 __all__ = [

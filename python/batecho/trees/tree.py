@@ -1,5 +1,5 @@
-"""A tree: leaf disks, bark triangles in named groups and the first-level branches, with its
-bounds, its OBJ form and its rigid moves.
+"""A tree: leaf disks, bark triangles in named groups, its woody skeleton as cylinder segments
+and the layout of its first-level branches, with its bounds, its OBJ form and its rigid moves.
 
 Conventions: metres, z up, angles in degrees only in names ending ``_deg``. Trees are built
 around their trunk base (``base``, default the origin).
@@ -18,6 +18,7 @@ import numpy as np
 from .._geometry import rot_z
 from .._validate import finite_scalar, frozen, point3, positive_scalar
 from ._shape import bounds
+from .branches import Branches
 from .leaves import Leaves
 from .objfile import Mesh, write_obj
 
@@ -91,8 +92,12 @@ class Tree:
     params : dict
         The parameters and the seed used (``seed``: the int seed or None; ``rng_state``: the
         bit generator's state on entry, which reproduces the tree).
-    branches : BranchLayout or None
+    layout : BranchLayout or None
         The first-level branching of a grown tree.
+    branches : Branches or None
+        The woody skeleton (trunk, branches, sub-branches, twigs) as cylinder segments whose
+        radii are the bark's: what echoes as wood (docs/model.md §9) and blocks rays
+        (§10). None where the tree's wood is unknown (an OBJ tree): then it is silent.
     """
 
     leaves: Leaves
@@ -105,7 +110,8 @@ class Tree:
     branch_names: tuple[str, ...] = ()
     base: np.ndarray = field(default_factory=lambda: np.zeros(3))
     params: dict[str, Any] = field(default_factory=dict)
-    branches: BranchLayout | None = None
+    layout: BranchLayout | None = None
+    branches: Branches | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -137,6 +143,14 @@ class Tree:
         set_(self, "branch_names", bnames)
         set_(self, "base", frozen(point3(self.base, "base")))
         set_(self, "params", dict(self.params))
+        if self.branches is not None and not isinstance(self.branches, Branches):
+            raise TypeError(
+                f"branches must be None or batecho.Branches, got {type(self.branches).__name__}"
+            )
+        if self.layout is not None and not isinstance(self.layout, BranchLayout):
+            raise TypeError(
+                f"layout must be None or a BranchLayout, got {type(self.layout).__name__}"
+            )
 
     # -- properties ---------------------------------------------------------------------------
 
@@ -175,10 +189,17 @@ class Tree:
         return float(np.sqrt((d * d).sum(axis=1)).max())
 
     def __repr__(self) -> str:
+        wood = "none" if self.branches is None else str(len(self.branches))
         return (
             f"Tree(n_leaves={self.n_leaves}, bark_faces={len(self.bark_faces)}, "
-            f"branches={len(self.branch_names)}, height={self.height:.2f} m)"
+            f"first_level_branches={len(self.branch_names)}, wood_segments={wood}, "
+            f"height={self.height:.2f} m)"
         )
+
+    def with_branches(self, branches: Branches | None) -> Tree:
+        """This tree with another woody skeleton (in the tree's frame): for an OBJ tree whose
+        skeleton you know, or None to silence its wood."""
+        return replace(self, branches=branches)
 
     # -- conversions ----------------------------------------------------------------------------
 
@@ -245,8 +266,20 @@ class Tree:
             leaves=leaves,
             bark_vertices=b + s * ((self.bark_vertices - b) @ rot.T) + t,
             base=b + t,
-            branches=None if self.branches is None else self.branches._moved(rot, b, t, s),
+            layout=None if self.layout is None else self.layout._moved(rot, b, t, s),
+            branches=None if self.branches is None else _moved_wood(self.branches, rot, b, t, s),
         )
+
+
+def _moved_wood(
+    wood: Branches, rot: np.ndarray, base: np.ndarray, t: np.ndarray, s: float
+) -> Branches:
+    """Segments moved as the bark is: ``x -> base + s R (x - base) + t``, radii times ``s``."""
+    return Branches._trusted(
+        base + s * ((wood.starts - base) @ rot.T) + t,
+        base + s * ((wood.ends - base) @ rot.T) + t,
+        wood.radii * s,
+    )
 
 
 __all__ = ["BranchLayout", "Tree"]

@@ -1,11 +1,12 @@
-//! The echo functions: `simulate`, `lobe_members` and `farthest_members` over poses given
-//! as NumPy arrays.
+//! The echo functions: `simulate`, `lobe_members`, `leaf_sights` and `farthest_members` over
+//! poses given as NumPy arrays.
 
 use batecho::lobe::{self, Search};
 use batecho::physics::pose::Pose;
+use batecho::shade::{self, Target};
 use batecho::simulate;
-use numpy::ndarray::{ArrayD, IxDyn};
-use numpy::{Complex64, IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArray2};
+use numpy::ndarray::{Array2, ArrayD, IxDyn};
+use numpy::{Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -48,10 +49,32 @@ type SimOut<'py> = (
     Bound<'py, PyArrayDyn<Complex64>>,
     Option<Bound<'py, PyArrayDyn<f64>>>,
     Bound<'py, PyArrayDyn<u64>>,
+    Option<Bound<'py, PyArray2<Complex64>>>,
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u64>>,
 );
 
-/// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`;
-/// with `R` receivers of their own, `(p, R, M)`, `(p, R, n)` and `(p, R)`.
+/// `(p, M)` complex values from separate real and imaginary parts.
+fn complex_rows<'py>(
+    py: Python<'py>,
+    p: usize,
+    m: usize,
+    re: &[f64],
+    im: &[f64],
+) -> Bound<'py, PyArray2<Complex64>> {
+    let v: Vec<Complex64> = re
+        .iter()
+        .zip(im)
+        .map(|(&re, &im)| Complex64::new(re, im))
+        .collect();
+    Array2::from_shape_vec((p, m), v)
+        .expect("p * M values")
+        .into_pyarray(py)
+}
+
+/// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,),
+/// wood spectrum (p, M) or None without branches, n_pieces (p,), n_shaded (p,))`; with `R`
+/// receivers of their own, the first three are `(p, R, M)`, `(p, R, n)` and `(p, R)`.
 /// `method` is "exact", "fast" or "auto" (the last two use `tol`); both are required, so that
 /// the defaults live in one place (`batecho.simulate`).
 #[pyfunction(name = "simulate")]
@@ -104,6 +127,8 @@ pub(crate) fn simulate_py<'py>(
     let spec = ArrayD::from_shape_vec(IxDyn(&shape(m)), spec)
         .expect("p * R * M values")
         .into_pyarray(py);
+    let wood = (!scene.inner.branches.is_empty())
+        .then(|| complex_rows(py, p, m, &out.wood_re, &out.wood_im));
     let imp = if impulse {
         let n = sonar.inner.params.n_samples;
         Some(
@@ -117,7 +142,14 @@ pub(crate) fn simulate_py<'py>(
     let counts = ArrayD::from_shape_vec(IxDyn(&lead), out.n_leaves)
         .expect("p * R counts")
         .into_pyarray(py);
-    Ok((spec, imp, counts))
+    Ok((
+        spec,
+        imp,
+        counts,
+        wood,
+        out.n_pieces.into_pyarray(py),
+        out.n_shaded.into_pyarray(py),
+    ))
 }
 
 /// Indices (ascending) of the leaves that count for one pose.
@@ -174,6 +206,75 @@ pub(crate) fn lobe_members<'py>(
         })
         .map_err(to_py)?;
     Ok(ids.into_pyarray(py))
+}
+
+/// Each counting leaf's caller's index, its crossings, and whether a branch blocks it.
+type Sights<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// For each leaf that counts for one pose, by caller's index (ascending): the number of other
+/// leaf disks the open segment from the sonar to its centre crosses, and whether a branch
+/// cylinder blocks that segment (tested only with `branches_block`).
+#[pyfunction]
+#[pyo3(signature = (scene, sonar, position, forward, up, left, branches_block))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn leaf_sights<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    sonar: &PySonar,
+    position: PyReadonlyArray2<'py, f64>,
+    forward: PyReadonlyArray2<'py, f64>,
+    up: PyReadonlyArray2<'py, f64>,
+    left: PyReadonlyArray2<'py, f64>,
+    branches_block: bool,
+) -> PyResult<Sights<'py>> {
+    let poses = poses_from(&position, &forward, &up, &left)?;
+    if poses.len() != 1 {
+        return Err(PyValueError::new_err(format!(
+            "leaf_sights takes one pose, got {}",
+            poses.len()
+        )));
+    }
+    let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
+    let pose = poses[0];
+    let rows = py
+        .detach(move || {
+            lobe::members(&sc, &so, &pose, 0, Search::Bvh).map(|mem| {
+                let targets: Vec<Target> = mem
+                    .iter()
+                    .map(|m| Target::Leaf {
+                        point: sc.centers.get(m.index as usize),
+                        leaf: m.index,
+                    })
+                    .collect();
+                let sights = shade::cast(&sc, pose.position, &targets, branches_block);
+                let mut rows: Vec<(i64, u64, bool)> = mem
+                    .iter()
+                    .zip(&sights)
+                    .map(|(m, s)| {
+                        (
+                            sc.ids[m.index as usize] as i64,
+                            s.crossings as u64,
+                            s.blocked,
+                        )
+                    })
+                    .collect();
+                rows.sort_unstable_by_key(|r| r.0);
+                rows
+            })
+        })
+        .map_err(to_py)?;
+    let ids: Vec<i64> = rows.iter().map(|r| r.0).collect();
+    let crossings: Vec<u64> = rows.iter().map(|r| r.1).collect();
+    let blocked: Vec<bool> = rows.iter().map(|r| r.2).collect();
+    Ok((
+        ids.into_pyarray(py),
+        crossings.into_pyarray(py),
+        blocked.into_pyarray(py),
+    ))
 }
 
 /// The range (m) of the farthest counting leaf of each pose (0 where none counts).

@@ -74,6 +74,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sonar::PySonar>()?;
     m.add_function(wrap_pyfunction!(echoes::simulate_py, m)?)?;
     m.add_function(wrap_pyfunction!(echoes::lobe_members, m)?)?;
+    m.add_function(wrap_pyfunction!(echoes::leaf_sights, m)?)?;
     m.add_function(wrap_pyfunction!(echoes::farthest_members, m)?)?;
     m.add_function(wrap_pyfunction!(obj::load_obj, m)?)?;
     m.add_function(wrap_pyfunction!(memory_limit, m)?)?;

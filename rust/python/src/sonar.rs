@@ -5,7 +5,9 @@ use batecho::error::Error;
 use batecho::fast::FastSonar;
 use batecho::physics::absorption::Atmosphere;
 use batecho::physics::beam::GaussianBeam;
-use batecho::sonar::{LeafModel, LobeRule, Receiver, Sonar, SonarParams, TooClose, Window};
+use batecho::sonar::{
+    LeafModel, LobeRule, Receiver, Shading, Sonar, SonarParams, TooClose, Window,
+};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -34,7 +36,8 @@ impl PySonar {
     #[pyo3(signature = (
         emitter, receiver, lobe, threshold_db, r0, p0, p_ref, cone_half_angle, max_range,
         fs, n_samples, f_lo, f_hi, sound_speed, leaf_model, spreading, gain, window,
-        atmosphere, min_range, too_close, min_ka, receivers=None
+        atmosphere, min_range, too_close, min_ka, receivers=None, shading=None,
+        branch_piece_scale=1.0
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -61,6 +64,8 @@ impl PySonar {
         too_close: &str,
         min_ka: f64,
         receivers: Option<Vec<BeamAt>>,
+        shading: Option<(f64, bool)>,
+        branch_piece_scale: f64,
     ) -> PyResult<Self> {
         let err = |m: String| PyValueError::new_err(m);
         let lobe = match lobe {
@@ -140,6 +145,11 @@ impl PySonar {
             min_range,
             too_close,
             min_ka,
+            shading: shading.map(|(leaf_transmission, branches_block)| Shading {
+                leaf_transmission,
+                branches_block,
+            }),
+            branch_piece_scale,
         };
         Ok(PySonar {
             inner: Arc::new(FastSonar::new(Sonar::new(params).map_err(to_py)?)),

@@ -1,6 +1,7 @@
-//! The exact sum (`method = "exact"`, docs/model.md §4-§5): the per-leaf spectrum kernel adds
-//! one leaf's unwindowed `A_k exp(j phi_k)` to every band bin, and the band spectrum sums the
-//! leaves in fixed chunks ([`spectrum`]).
+//! The exact sum (`method = "exact"`, docs/model.md §4-§5, §9): the per-leaf spectrum kernel
+//! adds one leaf's unwindowed `A_k exp(j phi_k)` to every band bin, the branch kernel
+//! ([`branch`]) one branch piece's, and the band spectrum sums them in fixed chunks
+//! ([`spectrum`]).
 //!
 //! A leaf's term at bin k is `F(k) exp(-j 2 pi f_k 2r/v)`, with the smooth leaf factor
 //! `F = g G L(c, beta) exp(-j psi(c, beta)) / (k r^2)` (times absorption). The round-trip
@@ -25,6 +26,7 @@
 //! leaves [0, pi]. `mul_add` is used throughout; on CPUs without FMA it is the correctly
 //! rounded libm `fma`, so every CPU gets the same bits.
 
+pub mod branch;
 pub mod exact;
 pub mod impulse;
 pub mod po;
@@ -35,6 +37,10 @@ pub mod spectrum;
 pub mod tables;
 pub mod term;
 
+pub use branch::{
+    add_branch, branch_points, branch_term, sum_branch_terms, sum_branch_terms_unwindowed,
+    BranchPoint, BranchTerm, PointForm,
+};
 pub(crate) use exact::cis_neg;
 pub use exact::{add_leaf, add_leaf_scalar, CHEB_TOL, SMOOTH_TOL};
 pub use prepared::Prepared;
@@ -43,7 +49,7 @@ pub(crate) use regime::{
     first_live_bin, paper_regime, paper_regime_bits, paper_regime_of, PaperRegime, REGIME_KINKED,
     REGIME_ZERO,
 };
-pub use spectrum::{band_spectrum, sum_terms, sum_terms_unwindowed};
+pub use spectrum::{band_spectrum, sum_chunked, sum_terms, sum_terms_unwindowed};
 pub use tables::{BandTables, BinOfKp, NodeTables, ANCHOR_BINS, LANES, POLY_BLOCK, POLY_DEG};
 pub use term::{leaf_amp, leaf_term, LeafTerm};
 

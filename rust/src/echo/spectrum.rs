@@ -1,5 +1,5 @@
 //! The band spectrum of one pose (docs/model.md §5):
-//! `Y_k = w_k sum_i A_ki exp(j phi_ki)`, accumulated in f64 over (leaf, bin).
+//! `Y_k = w_k sum_i A_ki exp(j phi_ki)`, accumulated in f64 over (scatterer, bin).
 //!
 //! Leaves are summed in fixed chunks of [`LEAF_CHUNK`] (by ascending leaf index); the chunk
 //! partial sums are added in chunk order. The grouping depends only on the member list, never
@@ -18,10 +18,13 @@ pub const LEAF_CHUNK: usize = 64;
 /// Partial sums held at once (bounds memory to `BATCH * M` complex values).
 const BATCH: usize = 256;
 
-/// Sum a chunk of leaves into `re`, `im` (length M, zeroed by the caller).
-fn chunk_sum(sonar: &Prepared, terms: &[LeafTerm], re: &mut [f64], im: &mut [f64]) {
+/// Adds one term's unwindowed contribution to every band bin (`re`, `im` of length `m_pad`).
+pub type AddTerm<T> = fn(&Prepared, &T, &mut [f64], &mut [f64]);
+
+/// Sum a chunk of terms into `re`, `im` (length M, zeroed by the caller).
+fn chunk_sum<T>(sonar: &Prepared, add: AddTerm<T>, terms: &[T], re: &mut [f64], im: &mut [f64]) {
     for t in terms {
-        crate::echo::add_leaf(sonar, t, re, im);
+        add(sonar, t, re, im);
     }
 }
 
@@ -46,12 +49,22 @@ pub fn sum_terms(sonar: &Prepared, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
 
 /// The band spectrum of the given leaf terms without the window, summed in their order.
 pub fn sum_terms_unwindowed(sonar: &Prepared, terms: &[LeafTerm]) -> (Vec<f64>, Vec<f64>) {
+    sum_chunked(sonar, crate::echo::add_leaf, terms)
+}
+
+/// The band spectrum of `terms` without the window, each added by `add`, in fixed chunks of
+/// [`LEAF_CHUNK`] whose partial sums are added in order.
+pub fn sum_chunked<T: Sync>(
+    sonar: &Prepared,
+    add: AddTerm<T>,
+    terms: &[T],
+) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let m_pad = sonar.tables.m_pad;
     // (accumulators on cache lines: see `crate::math::aligned`)
     let (mut re, mut im) = (Aligned::zeros(m_pad), Aligned::zeros(m_pad));
     if terms.len() <= LEAF_CHUNK {
-        chunk_sum(sonar, terms, &mut re, &mut im);
+        chunk_sum(sonar, add, terms, &mut re, &mut im);
     } else {
         // One set of partial sums for the whole call, zeroed again for each batch: allocated
         // afresh per batch (5 MB), they would go back to the system and come again as new
@@ -73,7 +86,7 @@ pub fn sum_terms_unwindowed(sonar: &Prepared, terms: &[LeafTerm]) -> (Vec<f64>, 
                         pr.fill(0.0);
                         pi.fill(0.0);
                     }
-                    chunk_sum(sonar, chunk, pr, pi);
+                    chunk_sum(sonar, add, chunk, pr, pi);
                 });
             for (pr, pi) in &partials[..n] {
                 for j in 0..m {

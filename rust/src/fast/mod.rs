@@ -28,6 +28,7 @@
 //! a later pass ([`leftover_pass`]).
 
 pub mod batch;
+pub mod branch;
 pub mod finish;
 pub mod kinks;
 pub mod lanes;
@@ -44,6 +45,7 @@ pub mod spread;
 pub mod subband;
 
 pub(crate) use batch::paper_batch;
+pub use branch::fast_branch_spectrum;
 pub(crate) use finish::{finish_grids, Direct};
 pub(crate) use kinks::{paper_route, PaperRoute};
 pub(crate) use lanes::{PaperLanes, LB, NOT_KINKED};

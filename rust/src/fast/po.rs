@@ -1,13 +1,11 @@
 //! Physical-optics leaves in a fast pass: their factor at the nodes, the route it decides, and
 //! the spreading of one leaf.
-use crate::echo::cis_neg;
 use crate::echo::term::LeafTerm;
 use crate::fast::plan::FastPlan;
 use crate::fast::plan::MAX_NODES;
 use crate::fast::prepared::FastSonar;
-use crate::fast::spread::spread_one;
+use crate::fast::spread::spread_at;
 use crate::physics::leaf;
-use crate::physics::phase::CyclesPerBin;
 
 /// First positive zero of the Bessel function J1.
 const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
@@ -68,25 +66,12 @@ fn po_node_values(
 /// caller sums it exactly).
 #[inline(always)]
 pub(crate) fn po_leaf(sonar: &FastSonar, plan: &FastPlan, t: &LeafTerm, grid: &mut [f64]) -> bool {
-    let p = plan.p;
-    let sp = &sonar.params;
     let (mut fr, mut fi) = ([0.0; MAX_NODES], [0.0; MAX_NODES]);
     match po_node_values(sonar, plan, t, &mut fr, &mut fi) {
         Route::Skip => true,
         Route::Direct => false,
         Route::Spread => {
-            let q = CyclesPerBin::new(t.range, sp.fs, sp.n_samples, sp.sound_speed);
-            let mut x = q.frac_at(1.0);
-            if x < 0.0 {
-                x += 1.0;
-            }
-            let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
-            let (l0, u) = plan.nufft.offset(x);
-            let mut sc = [[0.0; 2]; MAX_NODES];
-            for c in 0..p {
-                sc[c] = [fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr];
-            }
-            spread_one(plan, grid, u, l0, &sc);
+            spread_at(sonar, plan, t.range, &fr, &fi, grid);
             true
         }
     }

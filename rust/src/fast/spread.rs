@@ -1,9 +1,12 @@
 //! Spreading onto the NUFFT grid: the kernel weights of a leaf's offset (Horner chains, or the
 //! mirror form of an eight-tap kernel) times its strengths, added to every channel.
+use crate::echo::cis_neg;
 use crate::fast::lanes::LB;
 use crate::fast::nufft::MAX_W;
 use crate::fast::plan::FastPlan;
 use crate::fast::plan::MAX_NODES;
+use crate::fast::prepared::FastSonar;
+use crate::physics::phase::CyclesPerBin;
 
 /// Add one leaf's weighted strengths to every channel. Channel `c` is a run of complex values
 /// (real, imaginary interleaved) at `grid[2 c glen..]`; the leaf adds `w_j s(c)` (`s(c)`: its
@@ -61,6 +64,33 @@ pub(super) fn spread_one(
             spread_channels::<32>(grid, glen, p, l0, &std::array::from_fn(|t| w[t / 2]), s)
         }
     }
+}
+
+/// Spread one scatterer at round-trip delay `range` (m) with its factor at the plan's nodes
+/// (`fr`, `fi`): the factor times the phase at the centre bin `m_c`, onto the point of the
+/// delay's fractional part.
+#[inline(always)]
+pub(crate) fn spread_at(
+    sonar: &FastSonar,
+    plan: &FastPlan,
+    range: f64,
+    fr: &[f64; MAX_NODES],
+    fi: &[f64; MAX_NODES],
+    grid: &mut [f64],
+) {
+    let sp = &sonar.params;
+    let q = CyclesPerBin::new(range, sp.fs, sp.n_samples, sp.sound_speed);
+    let mut x = q.frac_at(1.0);
+    if x < 0.0 {
+        x += 1.0;
+    }
+    let (pr, pi) = cis_neg(q.frac_at(sonar.tables.k0 + plan.m_c as f64));
+    let (l0, u) = plan.nufft.offset(x);
+    let mut sc = [[0.0; 2]; MAX_NODES];
+    for c in 0..plan.p {
+        sc[c] = [fr[c] * pr - fi[c] * pi, fr[c] * pi + fi[c] * pr];
+    }
+    spread_one(plan, grid, u, l0, &sc);
 }
 
 /// The kernel weights of four points at offsets `u` in [0, 1) (zero past the kernel's width):

@@ -1,4 +1,4 @@
-//! Which leaves count for a pose (docs/model.md §3): the exact per-leaf test in f64, and a
+//! Which leaves and branch pieces count for a pose (docs/model.md §3, §9): the exact per-leaf test in f64, and a
 //! conservative traversal of an obvhs BVH over the leaf centres that only ever skips nodes
 //! that provably hold no counting leaf. The index never changes the answer: every candidate
 //! goes through the same exact test as the brute-force scan. Receivers at their own places
@@ -11,6 +11,7 @@ pub mod members;
 pub mod receivers;
 pub(crate) mod receivers_block;
 pub mod receivers_bound;
+pub mod pieces;
 pub mod rule;
 pub mod walk;
 
@@ -22,6 +23,7 @@ pub use receivers::{
     classify_heard, emitter_side, place_receivers, Heard, HeardDecision, OneWay, PlacedReceiver,
 };
 pub use receivers_bound::test_box_heard;
+pub use pieces::{branch_members, PieceMember};
 pub use rule::{classify, Decision, LeafView};
 pub use walk::{bvh_candidates, bvh_candidates_heard, candidates, candidates_heard};
 

@@ -1,5 +1,5 @@
 //! Distances from a point to the scene's solid primitives (docs/model.md §6, clearance): the
-//! leaf disk here; further primitives (branch cylinders, bark triangles) add their own.
+//! leaf disk and the branch cylinder (capped); further primitives (bark triangles) add their own.
 //!
 //! Each distance is written with plain IEEE operations (no fused multiply-add, no libm), in
 //! the order of `batecho.reference.point_disk_distance`, so that the NumPy reference and this
@@ -25,6 +25,23 @@ pub fn point_disk_distance(p: V3, c: V3, n: V3, a: f64) -> f64 {
         let t = rho - a;
         (h * h + t * t).sqrt()
     }
+}
+
+/// Euclidean distance (m) from `p` to the solid capped cylinder whose axis runs from `a` along
+/// the unit vector `u` for `length`, of radius `r` (0 inside it).
+///
+/// With `d = p - a`, the axial coordinate `s = d . u` and the distance from the axis line
+/// `rho = |d - s u|`: the axial excess `e = max(-s, s - length, 0)` and the radial excess
+/// `t = max(rho - r, 0)` give `sqrt(e^2 + t^2)` (the side, a cap, or the rim between them).
+#[inline]
+pub fn point_cylinder_distance(p: V3, a: V3, u: V3, length: f64, r: f64) -> f64 {
+    let d = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let s = dot(d, u);
+    let q = [d[0] - s * u[0], d[1] - s * u[1], d[2] - s * u[2]];
+    let rho = dot(q, q).sqrt();
+    let e = (-s).max(s - length).max(0.0);
+    let t = (rho - r).max(0.0);
+    (e * e + t * t).sqrt()
 }
 
 /// A lower bound (m) on the distance from `p` to anything inside the box `[lo, hi]`: the

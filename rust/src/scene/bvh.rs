@@ -32,6 +32,14 @@ pub(super) fn point_box(c: V3, half: f64) -> Aabb {
     )
 }
 
+/// The f32 box that surely contains the cylinder of axis `a`-`b` and radius `r` (its axis box
+/// widened by `r`, rounded outward).
+pub(super) fn segment_box(a: V3, b: V3, r: f64) -> Aabb {
+    let lo = point_box([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])], r);
+    let hi = point_box([a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])], r);
+    Aabb::new(lo.min, hi.max)
+}
+
 /// Renumber the BVH's leaves in depth-first order (first child first, as the lobe traversal
 /// visits them): returns the primitives in that order and sets `primitive_indices` to the
 /// identity. None (BVH untouched) unless every primitive appears exactly once.

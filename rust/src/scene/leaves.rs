@@ -1,9 +1,11 @@
-//! Leaves as disks (centre, unit normal, radius), validated and stored in the BVH's
-//! depth-first order, with the BVH built once and reused for every pose.
+//! The scene: leaves as disks (centre, unit normal, radius), validated and stored in the BVH's
+//! depth-first order, with the BVH built once and reused for every pose; and its branches
+//! ([`Branches`], kept in the caller's order).
 use crate::budget;
 use crate::error::{invalid, Result};
 use crate::math::vec3::{dot, MAX_NORM, MIN_NORM, V3};
 use crate::physics::leaf::{PAPER_BP, PAPER_PP};
+use crate::scene::branches::Branches;
 use crate::scene::bvh::dfs_order;
 use crate::scene::bvh::point_box;
 use crate::scene::bvh::subtree_ranges;
@@ -36,8 +38,10 @@ pub struct Scene {
     /// Wall time of the BVH build.
     pub build_time: Duration,
     /// The smallest radius and the stored index of its first leaf (checked against the band's
-    /// lowest frequency by every simulation; found once here).
+    /// lowest frequency by every simulation; found once here; infinite without leaves).
     pub smallest: (usize, f64),
+    /// The woody skeleton as cylinder segments (empty: the paper's scene of leaves alone).
+    pub branches: Branches,
 }
 
 /// 3-vectors stored as three coordinate arrays, so that a run of stored leaves loads as whole
@@ -121,13 +125,41 @@ pub fn validate_leaves(centers: &[V3], normals: &[V3], radii: &[f64]) -> Result<
 }
 
 impl Scene {
-    /// Build a scene. Normals must already be unit vectors (see [`normalized`]).
+    /// Build a scene of leaves. Normals must already be unit vectors (see [`normalized`]).
     pub fn new(centers: Vec<V3>, normals: Vec<V3>, radii: Vec<f64>) -> Result<Scene> {
+        Scene::with_branches(centers, normals, radii, Branches::default())
+    }
+
+    /// Build a scene of leaves and branches; with branches, it may hold no leaf.
+    pub fn with_branches(
+        centers: Vec<V3>,
+        normals: Vec<V3>,
+        radii: Vec<f64>,
+        branches: Branches,
+    ) -> Result<Scene> {
         budget::check(
             centers.len() as f64 * budget::BYTES_PER_LEAF,
             || format!("a scene of {} leaves", centers.len()),
             "split the leaves into several scenes",
         )?;
+        if centers.is_empty() && normals.is_empty() && radii.is_empty() {
+            if branches.is_empty() {
+                return invalid("a scene needs at least one leaf or one branch; got neither");
+            }
+            return Ok(Scene {
+                ids: Vec::new(),
+                centers: Xyz::gather(&[], &[]),
+                normals: Xyz::gather(&[], &[]),
+                radii: Vec::new(),
+                radius_pow_b: Vec::new(),
+                radius_pow_p: Vec::new(),
+                bvh: Bvh2::default(),
+                node_ranges: Vec::new(),
+                build_time: Duration::default(),
+                smallest: (0, f64::INFINITY),
+                branches,
+            });
+        }
         validate_leaves(&centers, &normals, &radii)?;
         let start = Instant::now();
         let boxes: Vec<Aabb> = centers
@@ -172,6 +204,7 @@ impl Scene {
             node_ranges,
             build_time,
             smallest,
+            branches,
         })
     }
 

@@ -1,21 +1,23 @@
-//! Clearance: the distance from points to the nearest leaf disk, found on the scene's BVH by
-//! a nearest-first walk that skips every node whose box is farther than the best distance
-//! so far. The walk takes any primitive whose BVH boxes hold it and a distance function
-//! (`physics::distance`), so further primitives (branch cylinders, bark triangles) reuse it.
+//! Clearance: the distance from points to the nearest leaf disk or branch cylinder, found on
+//! the scene's BVHs by a nearest-first walk that skips every node whose box is farther than
+//! the best distance so far. The walk takes any primitive whose BVH boxes hold it and a
+//! distance function (`physics::distance`): leaves and branches each have their own BVH.
 
 use crate::error::{invalid, Result};
 use crate::math::vec3::{is_finite3, V3};
-use crate::physics::distance::{point_box_distance, point_disk_distance};
+use crate::physics::distance::{point_box_distance, point_cylinder_distance, point_disk_distance};
 use crate::scene::{Scene, MAX_COORDINATE};
 use obvhs::bvh2::Bvh2;
 use rayon::prelude::*;
 
-/// The nearest primitive to a point: its distance (m) and its index (the caller's, for
-/// leaves). Among primitives at the same distance, the smallest index.
+/// The nearest primitive to a point: its distance (m), its index (the caller's, for leaves
+/// and branches) and whether it is a branch. Among primitives at the same distance, the
+/// smallest index, and a leaf before a branch.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Nearest {
     pub distance: f64,
     pub index: usize,
+    pub branch: bool,
 }
 
 /// A node's box as f64 corners.
@@ -77,6 +79,7 @@ pub fn nearest_in(
                     best = Some(Nearest {
                         distance: d,
                         index: k,
+                        branch: false,
                     });
                 }
             }
@@ -106,10 +109,12 @@ pub fn nearest_in(
 const SLACK: f64 = 1e-9;
 
 impl Scene {
-    /// The nearest leaf disk to each point (distance in m, the caller's leaf index), points in
-    /// parallel. Exactly the minimum of `physics::distance::point_disk_distance` over every
-    /// leaf (ties to the smallest index), for any number of threads. Points must be finite and
-    /// within [`MAX_COORDINATE`] of the origin (as leaves are).
+    /// The nearest leaf disk or branch cylinder to each point (distance in m, the caller's
+    /// index, which of the two), points in parallel. Exactly the minimum of
+    /// `physics::distance::point_disk_distance` over every leaf and of
+    /// `point_cylinder_distance` over every branch (ties to the smallest index, leaves before
+    /// branches), for any number of threads. Points must be finite and within
+    /// [`MAX_COORDINATE`] of the origin (as leaves are).
     pub fn clearance(&self, points: &[V3]) -> Result<Vec<Nearest>> {
         let bad = |p: &V3| !is_finite3(*p) || p.iter().any(|x| x.abs() > MAX_COORDINATE);
         if let Some(i) = points.iter().position(bad) {
@@ -119,21 +124,44 @@ impl Scene {
             ));
         }
         let bvh = &self.bvh;
-        let scale = extent(bvh);
+        let br = &self.branches;
+        let (scale, wood_scale) = (extent(bvh), extent(&br.bvh));
         let distance_of = |p: V3| {
-            let slack = SLACK * (scale + p.iter().fold(0.0, |m: f64, x| m.max(x.abs())));
+            let size = p.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
             let at = |i: usize| bvh.primitive_indices[i] as usize;
-            nearest_in(
+            let leaf = nearest_in(
                 bvh,
                 p,
-                slack,
+                SLACK * (scale + size),
                 |i| {
                     let s = at(i);
                     point_disk_distance(p, self.centers.get(s), self.normals.get(s), self.radii[s])
                 },
                 |i| self.ids[at(i)] as usize,
+            );
+            let seg = |i: usize| br.bvh.primitive_indices[i] as usize;
+            let wood = nearest_in(
+                &br.bvh,
+                p,
+                SLACK * (wood_scale + size),
+                |i| {
+                    let j = seg(i);
+                    point_cylinder_distance(p, br.starts[j], br.axes[j], br.lengths[j], br.radii[j])
+                },
+                seg,
             )
-            .expect("a scene has at least one leaf")
+            .map(|w| Nearest { branch: true, ..w });
+            match (leaf, wood) {
+                (Some(l), Some(w)) => {
+                    if w.distance < l.distance {
+                        w
+                    } else {
+                        l
+                    }
+                }
+                (Some(n), None) | (None, Some(n)) => n,
+                (None, None) => unreachable!("a scene has at least one leaf or branch"),
+            }
         };
         Ok(points.par_iter().map(|&p| distance_of(p)).collect())
     }
@@ -169,6 +197,7 @@ mod tests {
         let mut best = Nearest {
             distance: f64::INFINITY,
             index: 0,
+            branch: false,
         };
         for i in 0..c.len() {
             let d = point_disk_distance(p, c[i], n[i], r[i]);
@@ -176,6 +205,7 @@ mod tests {
                 best = Nearest {
                     distance: d,
                     index: i,
+                    branch: false,
                 };
             }
         }
@@ -203,6 +233,54 @@ mod tests {
             assert_eq!(*g, brute(*p, &c, &n, &r), "point {p:?}");
         }
         assert_eq!(got[400].distance, 0.0);
+    }
+
+    #[test]
+    fn with_branches_the_walk_finds_the_nearest_of_a_test_of_every_leaf_and_branch() {
+        let (_, c, n, r) = scene(800, 5);
+        let mut u = uniforms(11);
+        let k = 300;
+        let starts: Vec<V3> = (0..k)
+            .map(|_| [4.0 * u() - 2.0, 4.0 * u() - 2.0, 4.0 * u() - 2.0])
+            .collect();
+        let ends: Vec<V3> = starts
+            .iter()
+            .map(|a| [a[0] + u() - 0.5, a[1] + u() - 0.5, a[2] + 2.0 * u()])
+            .collect();
+        let radii: Vec<f64> = (0..k).map(|_| 0.005 + 0.1 * u()).collect();
+        let br = crate::scene::Branches::new(starts.clone(), ends, radii.clone()).unwrap();
+        let s = Scene::with_branches(c.clone(), n.clone(), r.clone(), br.clone()).unwrap();
+        let mut pts: Vec<V3> = (0..400)
+            .map(|_| [6.0 * u() - 3.0, 6.0 * u() - 3.0, 6.0 * u() - 3.0])
+            .collect();
+        pts.push(starts[7]); // on a branch's end cap centre
+        let got = s.clearance(&pts).unwrap();
+        for (p, g) in pts.iter().zip(&got) {
+            let leaf = brute(*p, &c, &n, &r);
+            let mut wood = Nearest {
+                distance: f64::INFINITY,
+                index: 0,
+                branch: true,
+            };
+            for (j, &rj) in radii.iter().enumerate() {
+                let d = point_cylinder_distance(*p, br.starts[j], br.axes[j], br.lengths[j], rj);
+                if d < wood.distance {
+                    wood = Nearest {
+                        distance: d,
+                        index: j,
+                        branch: true,
+                    };
+                }
+            }
+            let want = if wood.distance < leaf.distance {
+                wood
+            } else {
+                leaf
+            };
+            assert_eq!(*g, want, "point {p:?}");
+        }
+        assert_eq!(got[400].distance, 0.0);
+        assert!(got.iter().any(|g| g.branch) && got.iter().any(|g| !g.branch));
     }
 
     #[test]

@@ -90,6 +90,10 @@ pub fn simulate_heard(
             what,
         )?,
         n_leaves: budget::with_capacity(records, what)?,
+        wood_re: Vec::new(),
+        wood_im: Vec::new(),
+        n_pieces: budget::filled(poses.len(), 0, what)?,
+        n_shaded: budget::filled(poses.len(), 0, what)?,
     };
     for (re, im, y, c) in per_pose.into_iter().flatten() {
         out.spectrum_re.extend_from_slice(&re);

@@ -114,6 +114,16 @@ impl Sonar {
         if let Some(atm) = p.atmosphere {
             atm.validate()?;
         }
+        if let Some(sh) = p.shading {
+            let t = sh.leaf_transmission;
+            if !(0.0..=1.0).contains(&t) {
+                return invalid(format!("leaf_transmission must be in [0, 1], got {t}"));
+            }
+        }
+        let scale = p.branch_piece_scale;
+        if !(scale > 0.0 && scale <= 1.0) {
+            return invalid(format!("branch_piece_scale must be in (0, 1], got {scale}"));
+        }
 
         let n = p.n_samples;
         let df = p.fs / n as f64;
@@ -239,6 +249,13 @@ impl Sonar {
             None => s_tx * s_tx,
             Some(rx) => s_tx * rx.gain(az, el),
         }
+    }
+
+    /// The smallest Gaussian width (rad) of the emitter's and the receiver's patterns (the
+    /// branch piece rule's beam scale).
+    pub fn narrowest_sigma(&self) -> f64 {
+        let (e, r) = (&self.params.emitter, self.receiver());
+        e.sigma_x.min(e.sigma_y).min(r.sigma_x).min(r.sigma_y)
     }
 
     /// The largest two-way gain anywhere.

@@ -8,5 +8,5 @@ pub mod params;
 pub mod receivers;
 
 pub use band::{round_half_up, Sonar};
-pub use params::{LeafModel, LobeRule, SonarParams, TooClose, Window};
+pub use params::{LeafModel, LobeRule, Shading, SonarParams, TooClose, Window};
 pub use receivers::{Receiver, MAX_RECEIVERS};

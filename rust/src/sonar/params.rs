@@ -42,6 +42,15 @@ pub enum TooClose {
     Skip,
 }
 
+/// Shading (docs/model.md §10): each leaf disk crossed by the ray from the sonar to a
+/// scatterer multiplies its echo by `leaf_transmission` twice (out and back); a branch in the
+/// way silences it when `branches_block`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading {
+    pub leaf_transmission: f64,
+    pub branches_block: bool,
+}
+
 /// Every parameter of the echo model, in SI units and radians.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SonarParams {
@@ -68,6 +77,11 @@ pub struct SonarParams {
     pub too_close: TooClose,
     /// The smallest `k a` (at the band's lowest bin) for which the leaf models are used.
     pub min_ka: f64,
+    /// Shading; None (the paper's model) lets every scatterer echo as though it stood alone.
+    pub shading: Option<Shading>,
+    /// Branch pieces are this fraction of the longest the rule allows (docs/model.md §9); in
+    /// (0, 1], 1 by default, smaller to refine.
+    pub branch_piece_scale: f64,
 }
 
 impl SonarParams {
@@ -97,6 +111,8 @@ impl SonarParams {
             min_range: 0.01,
             too_close: TooClose::Error,
             min_ka: 0.5,
+            shading: None,
+            branch_piece_scale: 1.0,
         })
     }
 }

@@ -1,0 +1,67 @@
+"""What shading costs per pulse: a fast pulse (tol 1e-6) shaded against the same pulse unshaded.
+
+Scene: n leaves of radius 1-3 cm in a box 1-9.5 m in front of the sonar (x), y and z in
+[-2, 2] m, normals uniform on the sphere; sonar at the origin looking along +x, a 75 deg cone
+lobe (every leaf counts), 1201 bins, `Shading()` (tau 0.6, branches block). The unshaded and
+the shaded pulse are timed side by side in one run (least of repeats; the machine is shared
+and noisy, so compare within a run only). The issue's target: shading at most doubles the time
+of a fast pulse at 1e5 leaves.
+
+    python benches/bench_shading.py [--repeat 3] [--leaves 1e4 1e5 1e6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from functools import partial
+
+import numpy as np
+
+import batecho
+
+
+def best_time(fn, repeat):
+    """Least wall time of `repeat` calls, and the last result."""
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def leaf_box(n: int, seed: int = 1) -> batecho.Leaves:
+    rng = np.random.default_rng(seed)
+    centers = np.column_stack(
+        [rng.uniform(1, 9.5, n), rng.uniform(-2, 2, n), rng.uniform(-2, 2, n)]
+    )
+    return batecho.Leaves(centers, rng.normal(size=(n, 3)), rng.uniform(0.01, 0.03, n))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--leaves", type=float, nargs="+", default=[1e4, 1e5, 1e6])
+    args = ap.parse_args()
+    pose = batecho.Poses([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]])
+    plain = batecho.Sonar(beamwidth_deg=50.0, lobe="cone", cone_half_angle_deg=75.0)
+    shaded = plain.replace(shading=batecho.Shading())
+    print(f"RAYON_NUM_THREADS={os.environ.get('RAYON_NUM_THREADS', '(all cores)')}")
+    print("| leaves in the lobe | unshaded fast (ms) | shaded fast (ms) | ratio | shaded leaves |")
+    print("|---|---|---|---|---|")
+    for n in (int(x) for x in args.leaves):
+        scene = batecho.Scene(leaf_box(n))
+        t0, e0 = best_time(partial(batecho.simulate, scene, plain, pose, "fast", 1e-6), args.repeat)
+        t1, e1 = best_time(
+            partial(batecho.simulate, scene, shaded, pose, "fast", 1e-6), args.repeat
+        )
+        print(
+            f"| {int(e0.n_leaves[0]):,} | {1e3 * t0:.1f} | {1e3 * t1:.1f} | {t1 / t0:.2f} "
+            f"| {int(e1.n_shaded[0]):,} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,148 @@
+"""Branches as straight cylinder segments: starts and ends (m) and radii (m)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from .._geometry import norms
+from .._validate import finite, readonly, real_array, vectors
+from .leaves import MAX_COORDINATE_M
+
+
+class Branches:
+    """A set of ``k`` cylinder segments: a tree's woody skeleton (trunk, branches, twigs).
+
+    Parameters
+    ----------
+    starts, ends : array_like, shape (k, 3)
+        The end points of each segment's axis, in metres (world frame, z up); distinct.
+    radii : array_like, shape (k,)
+        Segment radii in metres, > 0.
+
+    Segments that share an end point exactly (bit for bit) are joints of one skeleton: they
+    never block the rays to each other's echoes (docs/model.md §10). The caller's arrays are
+    never modified or kept: ``Branches`` holds read-only float64 copies.
+    """
+
+    __slots__ = ("_ends", "_radii", "_starts")
+
+    def __init__(self, starts: Any, ends: Any, radii: Any):
+        s = vectors(starts, "starts", allow_single=False)
+        k = s.shape[0]
+        if k == 0:
+            raise ValueError("Branches needs at least one segment; got empty arrays")
+        e = vectors(ends, "ends", k, allow_single=False)
+        r = real_array(radii, "radii")
+        if r.ndim != 1 or r.shape[0] != k:
+            raise ValueError(f"radii must have shape ({k},), got {r.shape}")
+        finite(r, "radii")
+        if (r <= 0).any():
+            i = int(np.argmax(r <= 0))
+            raise ValueError(f"radii must be > 0; branch {i} has radius {r[i]}")
+        for name, pts in (("start", s), ("end", e)):
+            far = np.abs(pts) > MAX_COORDINATE_M
+            if far.any():
+                i = int(np.argwhere(far)[0, 0])
+                raise ValueError(
+                    f"branch {i} has a {name} coordinate beyond {MAX_COORDINATE_M:g} m: {pts[i]}"
+                )
+        length = norms(e - s)
+        if not (length > 0).all():
+            i = int(np.argmax(~(length > 0)))
+            raise ValueError(f"branch {i} has zero length (start {s[i]} equals end {e[i]})")
+        self._starts = readonly(s)
+        self._ends = readonly(e)
+        self._radii = readonly(r)
+
+    @classmethod
+    def _trusted(cls, starts: np.ndarray, ends: np.ndarray, radii: np.ndarray) -> Branches:
+        """Wrap arrays that are already validated float64 (no copy)."""
+        obj = cls.__new__(cls)
+        obj._starts = readonly(np.ascontiguousarray(starts, dtype=np.float64))
+        obj._ends = readonly(np.ascontiguousarray(ends, dtype=np.float64))
+        obj._radii = readonly(np.ascontiguousarray(radii, dtype=np.float64))
+        return obj
+
+    @property
+    def starts(self) -> np.ndarray:
+        """(k, 3) start points, m (read-only)."""
+        return self._starts
+
+    @property
+    def ends(self) -> np.ndarray:
+        """(k, 3) end points, m (read-only)."""
+        return self._ends
+
+    @property
+    def radii(self) -> np.ndarray:
+        """(k,) radii, m (read-only)."""
+        return self._radii
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """(k,) segment lengths, m."""
+        return norms(self._ends - self._starts)
+
+    def __len__(self) -> int:
+        return self._starts.shape[0]
+
+    def __repr__(self) -> str:
+        return (
+            f"Branches(n={len(self)}, length {self.lengths.sum():.3g} m, "
+            f"radius {self._radii.min():.3g}..{self._radii.max():.3g} m)"
+        )
+
+    def __getitem__(self, index: Any) -> Branches:
+        """A subset (integer array, boolean mask or slice)."""
+        idx = np.atleast_1d(np.arange(len(self))[index])
+        if idx.size == 0:
+            raise ValueError("selection is empty; Branches needs at least one segment")
+        return Branches._trusted(self._starts[idx], self._ends[idx], self._radii[idx])
+
+    def transformed(
+        self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0), scale: float = 1.0
+    ) -> Branches:
+        """Segments moved rigidly: ``x -> scale * R x + t`` (radii scale)."""
+        R = np.eye(3) if rotation is None else real_array(rotation, "rotation")
+        if R.shape != (3, 3):
+            raise ValueError(f"rotation must be a 3x3 matrix, got shape {R.shape}")
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+            raise ValueError("rotation must be a proper rotation matrix (orthonormal, det +1)")
+        t = vectors(translation, "translation")[0]
+        s = float(scale)
+        if not (np.isfinite(s) and s > 0):
+            raise ValueError(f"scale must be finite and > 0, got {scale}")
+        return Branches._trusted(
+            s * (self._starts @ R.T) + t, s * (self._ends @ R.T) + t, self._radii * s
+        )
+
+    @staticmethod
+    def concatenate(parts: Iterable[Branches]) -> Branches:
+        """All segments of ``parts``, in order."""
+        parts = list(parts)
+        if not parts:
+            raise ValueError("concatenate needs at least one Branches")
+        return Branches._trusted(
+            np.concatenate([p.starts for p in parts]),
+            np.concatenate([p.ends for p in parts]),
+            np.concatenate([p.radii for p in parts]),
+        )
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounding box of the segments' axes, (min, max)."""
+        both = np.concatenate([self._starts, self._ends])
+        return both.min(axis=0), both.max(axis=0)
+
+    def distance_to(self, point: Any) -> np.ndarray:
+        """(k,) distance (m) from ``point`` to each segment's surface (negative inside)."""
+        p = vectors(point, "point")[0]
+        d = self._ends - self._starts
+        m = p - self._starts
+        t = np.clip(np.einsum("ij,ij->i", m, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+        return norms(m - t[:, None] * d) - self._radii
+
+
+__all__: Sequence[str] = ["Branches"]

@@ -1,0 +1,155 @@
+//! Which branch pieces count for a pose (docs/model.md §9): each segment near the lobe is cut
+//! into pieces by the rule of [`max_piece_length`] at its nearest distance, and each piece goes
+//! through the leaves' exact lobe test at its reference point (the near surface at its centre).
+use crate::error::{Error, Result};
+use crate::lobe::bound::{test_box, AngularBound, BoxTest};
+use crate::lobe::rule::{classify, Decision};
+use crate::math::vec3::V3;
+use crate::physics::branch::{
+    distance_to_segment, max_piece_length, piece_count, piece_sight, PieceSight,
+};
+use crate::physics::pose::Pose;
+use crate::scene::Scene;
+use crate::sonar::{Sonar, TooClose};
+use rayon::prelude::*;
+
+/// One counting branch piece: its segment, the reference point of its echo, the range and
+/// two-way gain there, its length and radius, and the tilt of its axis from broadside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PieceMember {
+    pub segment: u32,
+    pub reference: V3,
+    pub range: f64,
+    pub gain: f64,
+    pub length: f64,
+    pub radius: f64,
+    pub cos_gamma: f64,
+    pub sin_gamma: f64,
+}
+
+/// The most pieces one segment may be cut into for one pose (a segment that needs more lies
+/// closer to the sonar than the model can treat).
+pub const MAX_PIECES: usize = 1 << 20;
+
+/// Segments per parallel task.
+const SEGMENT_CHUNK: usize = 256;
+
+/// The pieces of segment `i` that count, appended to `out`; the first too-close one (segment,
+/// distance of its surface) into `too_close`.
+fn segment_pieces(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    i: usize,
+    out: &mut Vec<PieceMember>,
+    too_close: &mut Option<(usize, f64)>,
+) -> Result<()> {
+    let br = &scene.branches;
+    let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
+    let p = pose.position;
+    let sp = &sonar.params;
+    let near = distance_to_segment(p, a, b) - radius;
+    if near > sonar.max_reach() {
+        return Ok(());
+    }
+    if near >= sp.min_range {
+        // (the lobe's conservative box test on the segment's box)
+        let lo: V3 = std::array::from_fn(|d| a[d].min(b[d]) - radius);
+        let hi: V3 = std::array::from_fn(|d| a[d].max(b[d]) + radius);
+        let bound = AngularBound::new(sonar, pose);
+        if test_box(sonar, pose, bound.as_ref(), lo, hi) == BoxTest::Outside {
+            return Ok(());
+        }
+    }
+    let k_max = sonar.wavenumbers[sonar.wavenumbers.len() - 1];
+    let max_len = max_piece_length(
+        near.max(sp.min_range),
+        k_max,
+        sonar.narrowest_sigma(),
+        sp.branch_piece_scale,
+    );
+    let length = br.lengths[i];
+    let n = piece_count(length, max_len);
+    if n > MAX_PIECES {
+        return Err(Error::InvalidInput(format!(
+            "branch {i} would need {n} pieces at {near:.3e} m from the sonar (at most \
+             {MAX_PIECES}); raise min_range_m or keep the sonar farther from it"
+        )));
+    }
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let (u, piece_len) = (br.axes[i], length / n as f64);
+    let mut note_close = |r: f64| {
+        if too_close.is_none() {
+            *too_close = Some((i, r));
+        }
+    };
+    for k in 0..n {
+        let t = (2 * k + 1) as f64 / (2 * n) as f64;
+        let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
+        match piece_sight(p, c, u, radius, piece_len) {
+            PieceSight::Lit {
+                reference,
+                cos_gamma,
+                sin_gamma,
+            } => match classify(sonar, pose, reference) {
+                Decision::In(v) => out.push(PieceMember {
+                    segment: i as u32,
+                    reference,
+                    range: v.range,
+                    gain: v.gain,
+                    length: piece_len,
+                    radius,
+                    cos_gamma,
+                    sin_gamma,
+                }),
+                Decision::TooClose(r) => note_close(r),
+                Decision::Out => {}
+            },
+            PieceSight::EndOn => {}
+            PieceSight::Inside => note_close(near.min(0.0)),
+        }
+    }
+    Ok(())
+}
+
+/// The counting branch pieces of one pose, by segment (the caller's order) and along each
+/// segment from its start. `pose_index` only labels errors. A piece closer than `min_range`
+/// (or a pose inside a branch) is an error naming the segment, or is left out with
+/// `too_close = "skip"`. Segments go in parallel chunks in order, so the result does not
+/// depend on the number of threads.
+pub fn branch_members(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    pose_index: usize,
+) -> Result<Vec<PieceMember>> {
+    let n = scene.branches.len();
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    type Part = (Vec<PieceMember>, Option<(usize, f64)>);
+    let parts: Vec<Result<Part>> = (0..n.div_ceil(SEGMENT_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut out, mut close) = (Vec::new(), None);
+            for i in c * SEGMENT_CHUNK..n.min((c + 1) * SEGMENT_CHUNK) {
+                segment_pieces(scene, sonar, pose, i, &mut out, &mut close)?;
+            }
+            Ok((out, close))
+        })
+        .collect();
+    let mut out = Vec::new();
+    for part in parts {
+        let (mine, close) = part?;
+        if let (Some((branch, range)), TooClose::Error) = (close, sonar.params.too_close) {
+            return Err(Error::BranchTooClose {
+                pose: pose_index,
+                branch,
+                range,
+                min_range: sonar.params.min_range,
+            });
+        }
+        out.extend(mine);
+    }
+    Ok(out)
+}

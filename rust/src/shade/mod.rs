@@ -1,0 +1,238 @@
+//! Shading (docs/model.md §10): for each counting scatterer, how many leaf disks the open segment
+//! from the sonar to it crosses, and whether a branch cylinder blocks it.
+//!
+//! The rays of one pose share their origin, so they are cast through a light buffer
+//! ([`buffer`]) around the sonar: the occluders that can reach the rays (leaves found by the
+//! BVH, branch segments by their bounding balls; [`occluders`]) are mapped to the cells of the
+//! target directions their bounding balls cover, and each target in those cells is tested
+//! exactly ([`crossing`]). Occluders go in parallel; a target's count is an integer sum, so the
+//! result does not depend on the order or the number of threads.
+
+pub mod buffer;
+pub mod crossing;
+pub mod occluders;
+
+use crate::math::vec3::{dot, V3};
+use crate::scene::Scene;
+use buffer::Buffer;
+use crossing::{Cylinder, Disk};
+use occluders::{occluding_leaves, occluding_segments, Cone};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+
+/// A scatterer whose ray is cast: its point (a leaf's centre, a branch piece's reference
+/// point) and what it is, so that it is never its own occluder.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// A leaf, by stored index.
+    Leaf { point: V3, leaf: u32 },
+    /// A branch piece of segment `segment`: its own segment and the segments joined to it never
+    /// block it.
+    Piece { point: V3, segment: u32 },
+}
+
+impl Target {
+    #[inline(always)]
+    fn point(&self) -> V3 {
+        match *self {
+            Target::Leaf { point, .. } | Target::Piece { point, .. } => point,
+        }
+    }
+}
+
+/// What lies on a target's ray: the leaf disks it crosses, and whether a branch blocks it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sight {
+    pub crossings: u32,
+    pub blocked: bool,
+}
+
+/// A target as the occluder loops read it, in cell order.
+#[derive(Clone, Copy)]
+struct Ray {
+    w: V3,
+    range: f64,
+    /// The target's own leaf (stored index), or `u32::MAX`.
+    leaf: u32,
+    /// The segment of a piece, or `u32::MAX`.
+    segment: u32,
+}
+
+/// Occluders per parallel task.
+const OCCLUDER_CHUNK: usize = 512;
+
+/// The sight of every target from `origin`: the leaf disks of the scene its ray crosses (any
+/// leaf but itself), and, with `branches_block`, whether a branch cylinder blocks it (any but a
+/// piece's own segment and those joined to it).
+pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool) -> Vec<Sight> {
+    if rayon::current_thread_index().is_none() {
+        return rayon::scope(|_| cast(scene, origin, targets, branches_block));
+    }
+    let n = targets.len();
+    if n == 0 {
+        return Vec::new();
+    }
+    let w: Vec<V3> = targets
+        .iter()
+        .map(|t| {
+            let p = t.point();
+            [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
+        })
+        .collect();
+    let r: Vec<f64> = w.iter().map(|w| dot(*w, *w).sqrt()).collect();
+    let cone = Cone::around(&w, &r);
+    let (leaves, segments) = rayon::join(
+        || occluding_leaves(scene, origin, &cone),
+        || {
+            if branches_block {
+                occluding_segments(scene, origin, &cone)
+            } else {
+                Vec::new()
+            }
+        },
+    );
+    let buf = Buffer::new(
+        &w,
+        2.0 * typical_angular_radius(scene, origin, &leaves, &segments),
+    );
+    let rays: Vec<Ray> = buf
+        .order
+        .iter()
+        .map(|&i| {
+            let (leaf, segment) = match targets[i as usize] {
+                Target::Leaf { leaf, .. } => (leaf, u32::MAX),
+                Target::Piece { segment, .. } => (u32::MAX, segment),
+            };
+            Ray {
+                w: w[i as usize],
+                range: r[i as usize],
+                leaf,
+                segment,
+            }
+        })
+        .collect();
+    let crossings: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
+    let blocked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
+    let all = buf.n_cells();
+    leaves.par_chunks(OCCLUDER_CHUNK).for_each(|chunk| {
+        for &j in chunk {
+            let c = scene.centers.get(j as usize);
+            let v = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
+            let a = scene.radii[j as usize];
+            let disk = Disk::new(v, scene.normals.get(j as usize), a);
+            // (no crossing of a ray shorter than the disk's nearest distance)
+            let near = (dot(v, v).sqrt() - a) * (1.0 - 1e-12);
+            let mut visit = |c0: usize, c1: usize| {
+                for pos in buf.start[c0] as usize..buf.start[c1] as usize {
+                    let ray = &rays[pos];
+                    if ray.range > near && ray.leaf != j && disk.crossed_by(ray.w) {
+                        crossings[pos].fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            };
+            if !buf.ball_cells(v, a, &mut visit) {
+                visit(0, all);
+            }
+        }
+    });
+    segments.par_chunks(OCCLUDER_CHUNK / 8).for_each(|chunk| {
+        let mut cells: Vec<(usize, usize)> = Vec::new();
+        for &j in chunk {
+            let br = &scene.branches;
+            let (s, u, len, a) = (
+                br.starts[j as usize],
+                br.axes[j as usize],
+                br.lengths[j as usize],
+                br.radii[j as usize],
+            );
+            let sv = [s[0] - origin[0], s[1] - origin[1], s[2] - origin[2]];
+            let cyl = Cylinder::new(sv, u, len, a);
+            // Balls along the segment, each about as long as a cell is wide at its distance
+            // (a long segment's one ball would cover cells its thin body never reaches).
+            cells.clear();
+            let mut everywhere = false;
+            let m = br.mids[j as usize];
+            let dist = ((m[0] - origin[0]).powi(2)
+                + (m[1] - origin[1]).powi(2)
+                + (m[2] - origin[2]).powi(2))
+            .sqrt();
+            let step = (2.0 * a).max(buf.cell_width() * dist);
+            let k = ((len / step).ceil() as usize).clamp(1, 4096);
+            let half = 0.5 * len / k as f64;
+            let rho = (half * half + a * a).sqrt();
+            for q in 0..k {
+                let t = (2 * q + 1) as f64 * half;
+                let v = [sv[0] + t * u[0], sv[1] + t * u[1], sv[2] + t * u[2]];
+                if !buf.ball_cells(v, rho, |c0, c1| cells.push((c0, c1))) {
+                    everywhere = true;
+                    break;
+                }
+            }
+            if everywhere {
+                cells.clear();
+                cells.push((0, all));
+            } else {
+                cells.sort_unstable();
+                cells.dedup();
+            }
+            for &(c0, c1) in &cells {
+                for pos in buf.start[c0] as usize..buf.start[c1] as usize {
+                    let ray = &rays[pos];
+                    if blocked[pos].load(Ordering::Relaxed)
+                        || ray.segment == j
+                        || (ray.segment != u32::MAX
+                            && br.joined_to(ray.segment as usize).binary_search(&j).is_ok())
+                    {
+                        continue;
+                    }
+                    if cyl.crossed_by(ray.w) {
+                        blocked[pos].store(true, Ordering::Relaxed);
+                    }
+                }
+            }
+        }
+    });
+    let mut out = vec![Sight::default(); n];
+    for (pos, &i) in buf.order.iter().enumerate() {
+        out[i as usize] = Sight {
+            crossings: crossings[pos].load(Ordering::Relaxed),
+            blocked: blocked[pos].load(Ordering::Relaxed),
+        };
+    }
+    out
+}
+
+/// The median angular radius (rad) of a sample of the occluders seen from `origin`: leaves'
+/// radii over their distances, else segments' (0 without occluders).
+fn typical_angular_radius(scene: &Scene, origin: V3, leaves: &[u32], segments: &[u32]) -> f64 {
+    const SAMPLE: usize = 65;
+    let dist = |c: V3| {
+        let v = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
+        dot(v, v).sqrt()
+    };
+    let mut a: Vec<f64> = if !leaves.is_empty() {
+        let step = leaves.len().div_ceil(SAMPLE);
+        leaves
+            .iter()
+            .step_by(step)
+            .map(|&j| scene.radii[j as usize] / dist(scene.centers.get(j as usize)))
+            .collect()
+    } else {
+        let br = &scene.branches;
+        let step = segments.len().div_ceil(SAMPLE).max(1);
+        segments
+            .iter()
+            .step_by(step)
+            .map(|&j| br.radii[j as usize] / dist(br.mids[j as usize]))
+            .collect()
+    };
+    a.retain(|x| x.is_finite());
+    if a.is_empty() {
+        return 0.0;
+    }
+    a.sort_unstable_by(f64::total_cmp);
+    a[a.len() / 2]
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,267 @@
+//! One pose's echo from a scene with branches or a sonar that shades (docs/model.md §9-§10):
+//! the counting leaves and branch pieces, each one's shading factor from the ray cast to it,
+//! and the leaves' and the wood's band spectra by the chosen method, added.
+//!
+//! Without shading the leaves go the paper model's way ([`leaf_pose`]) and the wood is
+//! added. With shading, the members' terms are scaled by their factors and summed from the
+//! list; where no factor differs from 1 the leaves go the paper model's way too, so that a
+//! transmission of 1 with no branch in the way gives the unshaded echo bit for bit.
+use super::{cost_exact, cost_fast, leaf_pose, Method};
+use crate::echo::{branch_term, leaf_term, sum_branch_terms, sum_terms, BranchTerm, LeafTerm};
+use crate::error::{invalid, Result};
+use crate::fast::{fast_branch_spectrum, fast_sum_terms, FastPlan, FastSonar, MIN_TOL};
+use crate::lobe::candidates::Candidates;
+use crate::lobe::{branch_members, members_of, PieceMember};
+use crate::physics::pose::Pose;
+use crate::physics::shading::shading_factor;
+use crate::scene::Scene;
+use crate::shade::{cast, Target};
+use crate::sonar::Sonar;
+
+/// One pose's echo: the windowed band spectrum, the wood's share of it (empty without
+/// branches), and the numbers of counting leaves, counting branch pieces, and counting leaves
+/// that shading dims or silences.
+pub struct PoseEcho {
+    pub re: Vec<f64>,
+    pub im: Vec<f64>,
+    pub wood_re: Vec<f64>,
+    pub wood_im: Vec<f64>,
+    pub n_leaves: u64,
+    pub n_pieces: u64,
+    pub n_shaded: u64,
+}
+
+impl PoseEcho {
+    /// The echo of leaves alone, unshaded.
+    pub fn of_leaves(re: Vec<f64>, im: Vec<f64>, n_leaves: u64) -> PoseEcho {
+        PoseEcho {
+            re,
+            im,
+            wood_re: Vec::new(),
+            wood_im: Vec::new(),
+            n_leaves,
+            n_pieces: 0,
+            n_shaded: 0,
+        }
+    }
+}
+
+/// True when the scene has no branches and the sonar does not shade: the paper model's path.
+pub fn is_plain(scene: &Scene, sonar: &Sonar) -> bool {
+    scene.branches.is_empty() && sonar.params.shading.is_none()
+}
+
+/// The share of `tol` each part's spectrum gets: a half each with leaves and wood (so that the
+/// sum's error stays within `tol` of the parts' norms' mean), else all of it.
+pub fn tol_share(scene: &Scene) -> f64 {
+    if !scene.branches.is_empty() && !scene.is_empty() {
+        0.5
+    } else {
+        1.0
+    }
+}
+
+/// Branches as thin as the leaves' `min_ka` are refused, naming the thinnest: physical optics
+/// needs `k a` well above 1 round a cylinder too.
+pub fn check_branch_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
+    let br = &scene.branches;
+    if br.is_empty() {
+        return Ok(());
+    }
+    let k_lo = sonar.wavenumbers[0];
+    let (i, a) = br.smallest;
+    if k_lo * a < sonar.params.min_ka {
+        return invalid(format!(
+            "branch {i} has radius {a:e} m, so k a = {:.4} at the band's lowest frequency {} Hz, below min_ka = {}; \
+             the cylinder model is not valid that thin (leave such twigs out of the branches or lower min_ka knowingly)",
+            k_lo * a,
+            sonar.freqs[0],
+            sonar.params.min_ka
+        ));
+    }
+    Ok(())
+}
+
+/// The range (m) of the farthest counting branch piece of one pose (0 where none counts).
+pub fn farthest_piece_range(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    pose_index: usize,
+) -> Result<f64> {
+    let pieces = branch_members(scene, sonar, pose, pose_index)?;
+    Ok(pieces.iter().fold(0.0f64, |a, p| a.max(p.range)))
+}
+
+/// The windowed spectrum of leaf terms by the cheaper method for their number.
+fn leaf_terms_spectrum(
+    sonar: &FastSonar,
+    plan: Option<&FastPlan>,
+    terms: &[LeafTerm],
+) -> (Vec<f64>, Vec<f64>) {
+    let m = sonar.n_bins();
+    match plan {
+        Some(pl) if cost_fast(terms.len(), m, pl) < cost_exact(terms.len(), m) => {
+            fast_sum_terms(sonar, pl, terms)
+        }
+        _ => sum_terms(sonar, terms),
+    }
+}
+
+/// The margin by which the wood's fast spectrum must clear its tolerance (see
+/// [`wood_spectrum`]).
+const WOOD_TOL_MARGIN: f64 = 4.0;
+
+/// An upper bound on the size of a piece's echo over the band (its largest factor times its
+/// amplitude times the square root of the bin count): the scale of its error in the fast sum.
+fn piece_size(sonar: &Sonar, t: &BranchTerm) -> f64 {
+    let k = &sonar.wavenumbers;
+    let (k_lo, k_hi) = (k[0], k[k.len() - 1]);
+    let c0 = 0.5 * t.length * (t.radius * t.cos_gamma / std::f64::consts::PI).sqrt();
+    let kx = k_lo * t.length * t.sin_gamma;
+    let sinc_bound = if kx > 1.0 { 1.0 / kx } else { 1.0 };
+    t.amp * c0 * k_hi.sqrt() * sinc_bound * (k.len() as f64).sqrt()
+}
+
+/// The windowed spectrum of branch terms by the cheaper method for their number of echo
+/// points (one or two a piece, each costing about what a smooth leaf does).
+///
+/// The fast method keeps each point's error within its plan's `tol` of that point's size, and
+/// the errors add about as a root sum of squares. The pieces of one segment cancel (their shared
+/// edges), so the wood's sum may be far smaller than its pieces: where the root sum of squares of
+/// the pieces' sizes, times [`WOOD_TOL_MARGIN`], exceeds the sum's norm, the sum is redone with
+/// the plan's `tol` tightened by that ratio (rounded down to a power of ten, so that few plans
+/// are built), or exactly where that falls below the fast method's floor or costs more.
+fn wood_spectrum(
+    sonar: &FastSonar,
+    plan: Option<&FastPlan>,
+    terms: &[BranchTerm],
+) -> (Vec<f64>, Vec<f64>) {
+    let m = sonar.n_bins();
+    let points = 2 * terms.len();
+    let pl = match plan {
+        Some(pl) if cost_fast(points, m, pl) < cost_exact(points, m) => pl,
+        _ => return sum_branch_terms(sonar, terms),
+    };
+    let (re, im) = fast_branch_spectrum(sonar, pl, terms);
+    let norm = re
+        .iter()
+        .zip(&im)
+        .map(|(a, b)| a * a + b * b)
+        .sum::<f64>()
+        .sqrt();
+    let rss = terms
+        .iter()
+        .map(|t| piece_size(sonar, t).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    if WOOD_TOL_MARGIN * rss <= norm {
+        return (re, im);
+    }
+    let tight = pl.tol * norm / (WOOD_TOL_MARGIN * rss);
+    let tight = 10f64.powf(tight.log10().floor());
+    if tight >= MIN_TOL {
+        if let Ok(tp) = sonar.plans.get(sonar, tight) {
+            if cost_fast(points, m, &tp) < cost_exact(points, m) {
+                return fast_branch_spectrum(sonar, &tp, terms);
+            }
+        }
+    }
+    sum_branch_terms(sonar, terms)
+}
+
+/// The shading of every counting leaf and piece of one pose: their factors in the members'
+/// order, then the pieces'.
+fn shading_factors(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    leaves: &[u32],
+    pieces: &[PieceMember],
+) -> Vec<f64> {
+    let Some(sh) = sonar.params.shading else {
+        return vec![1.0; leaves.len() + pieces.len()];
+    };
+    let targets: Vec<Target> = leaves
+        .iter()
+        .map(|&i| Target::Leaf {
+            point: scene.centers.get(i as usize),
+            leaf: i,
+        })
+        .chain(pieces.iter().map(|p| Target::Piece {
+            point: p.reference,
+            segment: p.segment,
+        }))
+        .collect();
+    cast(scene, pose.position, &targets, sh.branches_block)
+        .iter()
+        .map(|s| shading_factor(sh.leaf_transmission, s.crossings, s.blocked))
+        .collect()
+}
+
+/// One pose's echo (see the module's comment). `plan` is that of each part's share of `tol`
+/// ([`tol_share`]); `pose_index` only labels errors.
+pub fn pose_echo(
+    scene: &Scene,
+    sonar: &FastSonar,
+    plan: Option<&FastPlan>,
+    method: Method,
+    pose: &Pose,
+    pose_index: usize,
+    cands: &Candidates,
+) -> Result<PoseEcho> {
+    let m = sonar.n_bins();
+    let pieces = branch_members(scene, sonar, pose, pose_index)?;
+    let mut wood: Vec<BranchTerm> = pieces.iter().map(|p| branch_term(sonar, p)).collect();
+    let (re, im, n_leaves, n_shaded) = if sonar.params.shading.is_none() {
+        let (re, im, n) = leaf_pose(scene, sonar, plan, method, pose, pose_index, cands)?;
+        (re, im, n, 0)
+    } else {
+        let mem = members_of(scene, sonar, pose, pose_index, cands.to_vec())?;
+        let ids: Vec<u32> = mem.iter().map(|mb| mb.index).collect();
+        let factors = shading_factors(scene, sonar, pose, &ids, &pieces);
+        let (leaf_f, wood_f) = factors.split_at(mem.len());
+        for (t, &f) in wood.iter_mut().zip(wood_f) {
+            t.amp *= f;
+        }
+        wood.retain(|t| t.amp != 0.0);
+        let n_shaded = leaf_f.iter().filter(|&&f| f != 1.0).count() as u64;
+        if n_shaded == 0 {
+            let (re, im, n) = leaf_pose(scene, sonar, plan, method, pose, pose_index, cands)?;
+            (re, im, n, 0)
+        } else {
+            let mut terms: Vec<LeafTerm> = Vec::with_capacity(mem.len());
+            for (mb, &f) in mem.iter().zip(leaf_f) {
+                if f != 0.0 {
+                    let mut t = leaf_term(sonar, scene, mb);
+                    t.amp *= f;
+                    terms.push(t);
+                }
+            }
+            let (re, im) = leaf_terms_spectrum(sonar, plan, &terms);
+            (re, im, mem.len() as u64, n_shaded)
+        }
+    };
+    let mut echo = PoseEcho {
+        re,
+        im,
+        wood_re: Vec::new(),
+        wood_im: Vec::new(),
+        n_leaves,
+        n_pieces: pieces.len() as u64,
+        n_shaded,
+    };
+    if !scene.branches.is_empty() {
+        let (wr, wi) = if wood.is_empty() {
+            (vec![0.0; m], vec![0.0; m])
+        } else {
+            wood_spectrum(sonar, plan, &wood)
+        };
+        for j in 0..m {
+            echo.re[j] += wr[j];
+            echo.im[j] += wi[j];
+        }
+        (echo.wood_re, echo.wood_im) = (wr, wi);
+    }
+    Ok(echo)
+}
