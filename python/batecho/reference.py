@@ -597,6 +597,12 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
                 raise ValueError(f"{name} {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
     n = cast(int, sonar.n_samples)
     if sonar.receivers is not None:
+        if branches is not None or sonar.shading is not None:
+            raise ValueError(
+                "receivers at their own places hear leaves only: branches or shading with "
+                "receivers are not yet modelled"
+            )
+        assert leaves is not None
         return _simulate_heard(leaves, sonar, poses, k0, k1, f, w)
     spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
     wood = np.zeros_like(spectra) if branches is not None else None

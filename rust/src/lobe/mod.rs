@@ -8,10 +8,10 @@ pub mod block;
 pub mod bound;
 pub mod candidates;
 pub mod members;
+pub mod pieces;
 pub mod receivers;
 pub(crate) mod receivers_block;
 pub mod receivers_bound;
-pub mod pieces;
 pub mod rule;
 pub mod walk;
 
@@ -19,11 +19,11 @@ pub(crate) use block::{classify_candidates, BlockView, CB};
 pub use bound::{test_box, AngularBound, BoxTest};
 pub(crate) use members::classify_member;
 pub use members::{farthest_member_range, members, members_of, Member, Search};
+pub use pieces::{branch_members, PieceMember};
 pub use receivers::{
     classify_heard, emitter_side, place_receivers, Heard, HeardDecision, OneWay, PlacedReceiver,
 };
 pub use receivers_bound::test_box_heard;
-pub use pieces::{branch_members, PieceMember};
 pub use rule::{classify, Decision, LeafView};
 pub use walk::{bvh_candidates, bvh_candidates_heard, candidates, candidates_heard};
 
