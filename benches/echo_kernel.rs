@@ -3,7 +3,8 @@
 //! - the lobe query on a 1e6-leaf scene for 10 and 50 degree beams, BVH against brute force;
 //! - one whole fast pulse (lobe query and spectrum, tol 1e-6) with 1e5 and 1e6 leaves in the
 //!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
-//! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order.
+//! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order;
+//! - the clearance (nearest leaf disk) of 1000 points in the 1e6-leaf canopy.
 
 use batecho::echo::{leaf_term, sum_terms, LeafTerm};
 use batecho::fast::pulse::fast_pulse;
@@ -203,5 +204,35 @@ fn bench_pulse(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_spectrum, bench_fast, bench_lobe, bench_pulse);
+/// The clearance of 1000 points in the 1e6-leaf canopy of [`forest`] (BVH walk), beside
+/// the pulse it guards (`bench_lobe`'s lobe query is one part of a pulse).
+fn bench_clearance(c: &mut Criterion) {
+    let scene = forest(1_000_000);
+    let mut rng = Rng(3);
+    let points: Vec<[f64; 3]> = (0..1000)
+        .map(|_| {
+            [
+                rng.uniform(-50.0, 50.0),
+                rng.uniform(-50.0, 50.0),
+                rng.uniform(0.0, 14.0),
+            ]
+        })
+        .collect();
+    let mut g = c.benchmark_group("clearance_1e6");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.bench_function("bvh_1000_points", |b| {
+        b.iter(|| black_box(scene.clearance(&points).unwrap().len()))
+    });
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_spectrum,
+    bench_fast,
+    bench_lobe,
+    bench_pulse,
+    bench_clearance
+);
 criterion_main!(benches);

@@ -50,7 +50,7 @@ max_scene_points = 300
 NPZ_KEYS = {
     "spectrum", "freqs", "band_bins", "impulse", "times", "n_leaves", "positions", "forward",
     "up", "left", "pulse_times", "sample_indices", "tree_positions", "path_points", "seed",
-    "config_toml", "config_json", "sonar_json", "scene_json", "batecho_version",
+    "config_toml", "config_json", "sonar_json", "scene_json", "batecho_version", "clearance_m",
 }  # fmt: skip
 
 
@@ -387,3 +387,101 @@ def test_unknown_method_names_the_key(tmp_path, capsys):
     scene = _write(tmp_path, 'method = "quick"\n' + TINY)
     assert main(["simulate", str(scene), "-q", "--out", str(tmp_path / "o")]) == 2
     assert "method: 'quick' is not one of" in capsys.readouterr().err
+
+
+# -------------------------------------------------------------------------- clearance
+
+THROUGH_A_TREE = """\
+seed = 11
+[scene]
+kind = "tree"
+[sonar]
+beamwidth_deg = 20
+too_close = "skip"
+[flight]
+path = "line"
+start = [-9.0, 0.0, 5.0]
+target = [0.0, 0.0, 5.0]
+stop_distance = 0.5
+heading = "look_at"
+n_pulses = 10
+[output]
+plots = []
+"""
+
+
+def test_a_flight_through_a_tree_is_refused_naming_pulse_distance_margin_and_key(tmp_path, capsys):
+    scene = _write(tmp_path, THROUGH_A_TREE)
+    assert main(["simulate", str(scene), "-q", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "[flight] pulse 9 at (-0.50, 0.00, 5.00) m is" in err
+    assert "min_clearance_m = 0.5 m" in err and "allow_low_clearance = true" in err
+    assert not (tmp_path / "o" / "echoes.npz").exists()
+
+
+def test_an_allowed_flight_through_a_tree_runs_with_a_one_line_warning(tmp_path, capsys):
+    text = THROUGH_A_TREE.replace("n_pulses = 10", "n_pulses = 10\nallow_low_clearance = true")
+    scene = _write(tmp_path, text)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    assert "batecho simulate: warning: pulse 9 at" in err and "Traceback" not in err
+    with np.load(tmp_path / "o" / "echoes.npz") as z:
+        assert z["clearance_m"].shape == (10,) and z["clearance_m"][-1] < 0.5
+
+
+def test_allowing_low_clearance_keeps_the_echoes_bits(tmp_path):
+    from batecho.scenefile import run_scenefile
+
+    text = THROUGH_A_TREE.replace("n_pulses = 10", "n_pulses = 10\nallow_low_clearance = true")
+    with pytest.warns(batecho.ClearanceWarning, match="pulse 9"):
+        res = run_scenefile(SceneFile.from_string(text), tmp_path, plots=False)
+    st = res.setup
+    e = batecho.simulate(st.scene, st.sonar, st.plan.poses, min_clearance_m=0)
+    assert res.echoes.impulse.tobytes() == e.impulse.tobytes()
+
+
+def test_a_smaller_margin_lets_a_flight_pass(tmp_path):
+    text = THROUGH_A_TREE.replace("n_pulses = 10", "n_pulses = 10\nmin_clearance_m = 0.0")
+    scene = _write(tmp_path, text)
+    assert main(["simulate", str(scene), "-q", "--out", str(tmp_path / "o")]) == 0
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        (("n_pulses = 5", "n_pulses = 5\nmin_clearance_m = -1.0"), "min_clearance_m: must be >= 0"),
+        (("radius = 6.2", 'radius = "clear"'), 'it needs [scene] kind = "forest" or "tree"'),
+        (("radius = 6.2", 'radius = "wide"'), '[flight] radius: expected a number or "clear"'),
+    ],
+)  # fmt: skip
+def test_bad_clearance_keys_are_refused_by_name(tmp_path, capsys, edit, needle):
+    scene = _write(tmp_path, TINY.replace(edit[0], edit[1], 1))
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "o"), "-q"]) == 2
+    assert needle in capsys.readouterr().err
+
+
+def test_a_clear_circle_keeps_the_margin_and_is_reported(tmp_path, capsys):
+    text = THROUGH_A_TREE.replace('path = "line"', 'path = "circle"\nradius = "clear"').replace(
+        "start = [-9.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 5.0]\nstop_distance = 0.5\n"
+        'heading = "look_at"',
+        'altitude = 5.0\nheading = "center"',
+    )
+    scene = _write(tmp_path, text)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "circle: radius 6.20 m" in out and "clearance: every pulse at least" in out
+
+
+@pytest.mark.parametrize("name", ["flight.toml", "leaf_box.toml", "straight_run.toml"])
+def test_the_example_flights_keep_their_margin_from_leaves_and_bark(name):
+    from batecho.scenefile import check_clearance
+
+    st = setup_scenefile(SceneFile.from_path(EXAMPLES / name))
+    margin = st.scenefile.config["flight"]["min_clearance_m"]
+    assert margin == 0.5
+    assert check_clearance(st).distance.min() >= margin
+
+
+def test_the_demo_keeps_its_margin(demo_out):
+    with np.load(demo_out / "echoes.npz") as z:
+        assert z["clearance_m"].min() >= 0.5

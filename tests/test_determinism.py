@@ -1,4 +1,5 @@
-"""Results are bit-identical for any number of threads (the reduction order is fixed)."""
+"""Results are bit-identical for any number of threads (the reduction order is fixed): echoes
+and clearances."""
 
 from __future__ import annotations
 
@@ -38,6 +39,10 @@ SCRIPT = textwrap.dedent(
         e = batecho.simulate(big, cone, poses, method="fast", tol=tol)
         out[f"fast-{tol}-spec"] = e.spectrum
         out[f"fast-{tol}-n"] = e.n_leaves
+    points = np.column_stack([rng.uniform(0, 10, 5000), rng.uniform(-3, 3, 5000),
+                              rng.uniform(-3, 3, 5000)])
+    out["clearance"], out["clearance-index"] = batecho.Scene(big).clearance(
+        points, return_index=True)
     np.savez(sys.argv[1], **out)
     """
 )

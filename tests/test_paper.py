@@ -189,8 +189,47 @@ def test_machine_info_names_the_cpu_family_model_and_vector_instructions():
 # --------------------------------------------------------------------------- figures
 
 
-def test_paper_figures_writes_decodable_pngs_and_data(tmp_path):
-    written = paper_figures(tmp_path, seed=4, echo_pulses=12, dpi=50)
+@pytest.fixture(scope="module")
+def paper_run(tmp_path_factory):
+    """The figures of seed 4 written, and each Figure as it was drawn (before it closed)."""
+    from batecho.paper import figures as module
+
+    drawn: dict = {}
+    save = module._savefig
+
+    def keep(fig, path, dpi):
+        fig.canvas.draw()
+        drawn[path.stem] = _layout(fig)
+        return save(fig, path, dpi)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(module, "_savefig", keep)
+        written = paper_figures(tmp_path_factory.mktemp("paper"), seed=4, echo_pulses=12, dpi=50)
+    return written, drawn
+
+
+def _layout(fig) -> list[dict]:
+    """Per 2-D panel: its x label, whether any x tick label shows, its y label, the y offset
+    text, and the labels of the axes drawn on it (a secondary range axis)."""
+    out = []
+    for ax in fig.axes:
+        if ax.name == "3d" or ax.get_label() == "<colorbar>" or not ax.get_ylabel():
+            continue
+        shown = [t for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+        out.append(
+            {
+                "xlabel": ax.get_xlabel(),
+                "xticks_shown": bool(shown),
+                "ylabel": ax.get_ylabel(),
+                "offset": ax.yaxis.get_offset_text().get_text(),
+                "on_top": [c.get_xlabel() for c in ax.child_axes],
+            }
+        )
+    return out
+
+
+def test_paper_figures_writes_decodable_pngs_and_data(paper_run):
+    written, _ = paper_run
     pngs = [p for p in written.values() if p.suffix == ".png"]
     assert {"fig05", "fig06", "fig07", "fig08", "fig09", "fig10"} <= set(written)
     for p in pngs:
@@ -198,3 +237,51 @@ def test_paper_figures_writes_decodable_pngs_and_data(tmp_path):
     with np.load(written["data"]) as z:
         assert not np.any(z["fig05_impulse"])  # the empty lobe: exactly zero
         assert np.all(z["fig09_n_leaves"] >= 0) and z["fig09_impulses"].shape[0] == 4
+
+
+def test_paper_panels_with_hidden_ticks_carry_no_axis_label(paper_run):
+    _, drawn = paper_run
+    for name, panels in drawn.items():
+        for p in panels:
+            assert p["xticks_shown"] or not p["xlabel"], (name, p)
+
+
+def test_paper_figures_name_the_range_axis_once_per_stack(paper_run):
+    _, drawn = paper_run
+    tops = [p["on_top"] for p in drawn["fig07_impulse_beamwidths"]]
+    assert tops == [["range (m)"], [], []]
+
+
+def test_paper_impulse_axes_have_units_and_no_offset_text(paper_run):
+    _, drawn = paper_run
+    for name in ("fig07_impulse_beamwidths", "fig09_impulses_circle", "straight_run_impulses"):
+        for p in drawn[name]:
+            assert p["ylabel"].startswith("echo, relative pressure") and p["offset"] == "", name
+
+
+def test_paper_experiments_keep_every_pulse_half_a_metre_from_leaves_and_bark(paper_run):
+    written, _ = paper_run
+    ss = np.random.SeedSequence(4)
+    rngs = [np.random.default_rng(s) for s in ss.spawn(3)]
+    one = make_forest(np.zeros((1, 2)), rngs[0], "grow_tree")
+    pos2 = draw_tree_positions(2, rngs[1])
+    two = make_forest(pos2, rngs[1], "grow_tree")
+    with np.load(written["data"]) as z:
+        np.testing.assert_array_equal(z["two_trees_positions"], pos2)
+        assert one.clearance(z["straight_run_positions"]).min() >= 0.5
+        assert one.clearance(z["fig06_position"][None]).min() >= 0.5
+        assert two.clearance(z["fig09_positions"]).min() >= 0.5
+        assert two.clearance(z["echo_image_positions"]).min() >= 0.5
+
+
+def test_table1_circles_keep_half_a_metre_from_every_crown(small_table):
+    radii = small_table.settings["radii_m"]
+    assert set(radii) == {"T=1, forest 0", "T=2, forest 0"}
+    for t in (1, 2):
+        rng = np.random.default_rng([3, t, 0])
+        pos = draw_tree_positions(t, rng)
+        forest = make_forest(pos, rng, "grow_tree")
+        r = radii[f"T={t}, forest 0"]
+        assert r >= 6.2
+        ring = batecho.circle(pos.mean(axis=0), r, 5.0, n_points=360)
+        assert forest.clearance(ring.positions).min() >= 0.5

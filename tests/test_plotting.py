@@ -62,6 +62,37 @@ def test_plot_impulse_writes_png(echoes, tmp_path):
     assert isinstance(fig, Figure) and _png_ok(fig, tmp_path / "impulse.png")
 
 
+def test_plot_impulse_names_its_unit_and_scale(echoes):
+    fig = plot_impulse(echoes, 0)
+    ax = fig.axes[0]
+    peak = np.abs(echoes.impulse[0]).max()
+    e = math.floor(math.log10(peak))
+    assert ax.get_ylabel() == f"echo, relative pressure ($\\times10^{{{e}}}$)"
+    drawn = np.abs(ax.lines[0].get_ydata()).max()
+    assert 1.0 <= drawn < 10.0 and math.isclose(drawn * 10.0**e, peak, rel_tol=1e-12)
+    fig.canvas.draw()
+    assert ax.yaxis.get_offset_text().get_text() == ""  # no offset text to collide with
+    plt.close(fig)
+
+
+def test_plot_impulse_draws_the_envelope_over_the_impulse_in_another_colour(echoes):
+    fig = plot_impulse(echoes, 0)
+    imp, env = fig.axes[0].lines[:2]
+    assert imp.get_label() == "impulse response" and env.get_label() == "envelope"
+    assert imp.get_color() != env.get_color() and env.get_zorder() >= imp.get_zorder()
+    assert np.all(env.get_ydata() >= np.abs(imp.get_ydata()) * (1 - 1e-9) - 1e-12)
+    plt.close(fig)
+
+
+def test_plot_impulse_keeps_its_legend_off_the_data(echoes):
+    fig = plot_impulse(echoes, 0)
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    leg = ax.get_legend().get_window_extent()
+    assert leg.x0 >= ax.get_window_extent().x1  # right of the axes, not over them
+    plt.close(fig)
+
+
 def test_plot_impulse_says_an_empty_lobe_is_exactly_zero(echoes):
     silent = int(np.flatnonzero(echoes.n_leaves == 0)[0])
     fig = plot_impulse(echoes, silent)
@@ -83,12 +114,43 @@ def test_plot_impulses_one_visible_panel_per_index(echoes, tmp_path):
     assert _png_ok(fig, tmp_path / "impulses.png")
 
 
+def test_plot_impulses_labels_time_below_and_range_above_once_per_column(echoes):
+    fig = plot_impulses(echoes, [0, 1, 2, 3], ncols=2)
+    fig.canvas.draw()
+    panels = [ax for ax in fig.axes if ax.get_ylabel()]
+    assert len(panels) == 4
+    for k, ax in enumerate(panels):
+        shown = [t.get_text() for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+        bottom = k >= 2
+        assert (ax.get_xlabel() == "time (ms)") == bottom and bool(shown) == bottom
+        ranges = [c for c in ax.child_axes if c.get_xlabel() == "range (m)"]
+        assert len(ranges) == (0 if bottom else 1)
+    assert len(fig.legends) == 1 and not any(ax.get_legend() for ax in panels)
+    plt.close(fig)
+
+
 def test_plot_spectrum_writes_png(echoes, tmp_path):
     assert _png_ok(plot_spectrum(echoes, 1), tmp_path / "spectrum.png")
 
 
 def test_plot_spectrogram_writes_png(echoes, tmp_path):
     assert _png_ok(plot_spectrogram(echoes, 1), tmp_path / "spectrogram.png")
+
+
+def test_plot_spectrogram_spans_the_band_and_a_quarter_of_it_either_side(echoes):
+    fig = plot_spectrogram(echoes, 1)
+    assert fig.axes[0].get_ylim() == pytest.approx((55.0, 85.0))
+    assert "kHz" in fig.axes[0].get_ylabel() and "dB" in fig.axes[1].get_ylabel()
+    plt.close(fig)
+
+
+def test_plot_spectrogram_has_no_power_at_0_hz(echoes):
+    """Each segment's mean removed before the window (SciPy's default) left a line at 0 Hz."""
+    fig = plot_spectrogram(echoes, 1, nperseg=256)
+    mesh = fig.axes[0].collections[0]
+    db = np.asarray(mesh.get_array()).reshape(129, -1)  # nperseg // 2 + 1 frequencies
+    assert db[0].max() < -60.0 and db.max() == 0.0
+    plt.close(fig)
 
 
 def test_plot_echo_image_uses_the_given_x(echoes, tmp_path):
@@ -99,6 +161,31 @@ def test_plot_echo_image_uses_the_given_x(echoes, tmp_path):
     assert lo < 10.0 and hi > 70.0 and ax.get_xlabel() == "angle (deg)"
     assert ax.get_ylim()[1] <= 8.0 + 1e-9
     assert _png_ok(fig, tmp_path / "echo_image.png")
+
+
+def test_plot_echo_image_colours_are_relative_to_a_percentile_not_the_loudest(box, sonar):
+    """One pulse 5 cm from a leaf (1/r^2 makes it some 70 dB louder) leaves the colours of
+    the other 60 within 3 dB of where they were."""
+    ring = batecho.circle((5.5, 0.0), radius=6.2, altitude=0.0, n_points=60, heading="center")
+    leaf, n = box.leaves.centers[0], box.leaves.normals[0]
+    near = batecho.Poses(leaf - 0.05 * n, n)  # 5 cm from a leaf, facing it
+    quiet = batecho.simulate(box, sonar, ring)
+    loud = batecho.simulate(box, sonar, batecho.Poses.concatenate([ring, near]), min_clearance_m=0)
+    assert loud.envelope()[-1].max() > 1000 * quiet.envelope().max()
+
+    def image(e):
+        fig = plot_echo_image(e)
+        mesh = fig.axes[0].collections[0]
+        assert mesh.norm.vmax == 0.0 and mesh.norm.vmin == -60.0
+        assert "99.9th percentile" in fig.axes[1].get_ylabel()
+        img = np.ma.filled(mesh.get_array(), np.nan).reshape(-1, len(e))
+        plt.close(fig)
+        return img
+
+    a, b = image(quiet), image(loud)[:, : len(quiet)]
+    shown = a > -50.0  # well above the floor in both
+    assert shown.sum() > 1000
+    assert np.abs(a[shown] - b[shown]).max() < 3.0  # dB
 
 
 def test_plot_echo_image_rejects_x_of_the_wrong_length(echoes):
@@ -127,6 +214,53 @@ def test_plot_scene_3d_writes_png(box, sonar, poses, tmp_path):
         title="scene",
     )
     assert isinstance(fig, Figure) and _png_ok(fig, tmp_path / "scene.png")
+
+
+def test_plot_scene_3d_keys_each_lobe_and_says_what_it_thinned(box, sonar, poses):
+    members = [batecho.lobe_members(box, sonar, poses[i]) for i in (0, 3)]
+    fig = plot_scene_3d(box, poses, sonar, members=members, lobe_poses=[0, 3], max_points=100)
+    texts = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    n = box.n_leaves
+    assert f"leaves ({n:,}; 100 drawn)" in texts
+    assert "lobe of pulse 0" in texts and "lobe of pulse 3" in texts
+    plt.close(fig)
+
+
+def test_plot_scene_3d_takes_lobe_labels(box, sonar, poses):
+    fig = plot_scene_3d(box, poses, sonar, lobe_poses=[1], lobe_labels=["point A"])
+    assert "point A" in [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    plt.close(fig)
+    with pytest.raises(ValueError, match="lobe_labels"):
+        plot_scene_3d(box, poses, sonar, lobe_poses=[1, 2], lobe_labels=["only one"])
+
+
+def test_plot_scene_3d_keeps_its_legend_below_the_axes(box, sonar, poses):
+    fig = plot_scene_3d(box, poses, sonar, lobe_poses=[0])
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    assert ax.get_legend().get_window_extent().y1 <= ax.get_window_extent().y0 + 1.0
+    plt.close(fig)
+
+
+def test_plot_scene_3d_gives_a_short_axis_fewer_ticks(box):
+    line = batecho.line_to([-14.0, 0.0, 0.0], [0.0, 0.0, 0.0], n_points=5)
+    fig = plot_scene_3d(box, line)
+    ax = fig.axes[0]
+    spans = np.array([np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim()), np.ptp(ax.get_zlim())])
+
+    def n_ticks(axis, lim):
+        t = axis.get_ticklocs()
+        return int(((t >= lim[0]) & (t <= lim[1])).sum())
+
+    counts = [
+        n_ticks(ax.xaxis, ax.get_xlim()),
+        n_ticks(ax.yaxis, ax.get_ylim()),
+        n_ticks(ax.zaxis, ax.get_zlim()),
+    ]
+    longest = int(np.argmax(spans))
+    for k in range(3):
+        assert counts[k] <= max(3, 9 * spans[k] / spans[longest])
+    plt.close(fig)
 
 
 def test_plot_scene_3d_has_equal_scale_on_every_axis(box, poses):

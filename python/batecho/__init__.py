@@ -21,6 +21,7 @@ from .flight.mount import SonarMount
 from .flight.poses import Poses, look_at
 from .flight.record import Flight
 from .flight.vehicle import Quadrotor
+from .forest.clearance import DEFAULT_MIN_CLEARANCE_M, ClearanceWarning
 from .forest.forest import Forest
 from .forest.ipp import (
     PAPER_WINDOW,
@@ -83,12 +84,14 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "DEFAULT_MIN_CLEARANCE_M",
     "PAPER_WINDOW",
     "REFERENCE_TREE",
     "Atmosphere",
     "Beam",
     "BranchLayout",
     "Branching",
+    "ClearanceWarning",
     "Echoes",
     "Flight",
     "Forest",

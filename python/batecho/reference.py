@@ -243,4 +243,41 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
     )
 
 
-__all__ = ["lobe_members", "simulate"]
+# Section 6: clearance ----------------------------------------------------------------------
+def point_disk_distance(
+    p: np.ndarray, c: np.ndarray, n: np.ndarray, a: np.ndarray | float
+) -> np.ndarray:
+    """Distance from points ``p`` to disks (centre ``c``, unit normal ``n``, radius ``a``),
+    broadcast row by row (``(..., 3)`` arrays).
+
+    ``d = p - c``, height ``h = d . n``, in-plane part ``q = d - h n`` of length ``rho``: the
+    nearest disk point is ``c + q`` if ``rho <= a`` (distance ``|h|``), else the rim point
+    ``c + a q / rho`` (distance ``sqrt(h^2 + (rho - a)^2)``). Written in the Rust core's order
+    of operations (no FMA), so both give the same bits.
+    """
+    d = p - c
+    h = d[..., 0] * n[..., 0] + d[..., 1] * n[..., 1] + d[..., 2] * n[..., 2]
+    q = d - h[..., None] * n
+    rho = np.sqrt(q[..., 0] * q[..., 0] + q[..., 1] * q[..., 1] + q[..., 2] * q[..., 2])
+    t = rho - a
+    return np.where(rho <= a, np.abs(h), np.sqrt(h * h + t * t))
+
+
+def clearance(scene: Any, points: Any, chunk: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
+    """Per point (n, 3), the distance (m) to the nearest leaf disk of ``scene`` and that leaf's
+    index (the smallest among equally near leaves), by testing every leaf."""
+    leaves = as_leaves(scene)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    c, nv, a = leaves.centers, leaves.normals, leaves.radii
+    dist = np.full(len(pts), np.inf)
+    index = np.zeros(len(pts), dtype=np.int64)
+    step = max(1, chunk // len(c))
+    for s in range(0, len(pts), step):
+        d = point_disk_distance(pts[s : s + step, None, :], c[None], nv[None], a[None])
+        k = np.argmin(d, axis=1)  # the first of equal minima: the smallest index
+        dist[s : s + step] = d[np.arange(len(k)), k]
+        index[s : s + step] = k
+    return dist, index
+
+
+__all__ = ["clearance", "lobe_members", "point_disk_distance", "simulate"]

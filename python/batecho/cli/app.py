@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
@@ -122,9 +123,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         "demo",
         help="simulate a small forest and a flight; write plots and data",
         description="Ming's canonical leaf box (canonical_*.png/.npz), then a few trees from "
-        "the paper's IPP and a Crazyflie flying a 6.2 m circle around them at 5 m with "
-        "its sonar looking at the centre: scene_3d.png, impulses.png, echo_image.png, "
-        "spectrogram.png and echoes.npz. The scene file it ran is written as demo.toml.",
+        "the paper's IPP and a Crazyflie circling them at 5 m (6.2 m out, or wider to keep "
+        "0.5 m from every crown) with its sonar looking at the centre: scene_3d.png, "
+        "impulses.png, echo_image.png, spectrogram.png and echoes.npz. The scene file it ran is "
+        "written as demo.toml.",
         epilog="example:\n  batecho demo --out demo-out --trees 2 --beamwidth 20",
         formatter_class=fmt,
     )
@@ -182,7 +184,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         help="write Figures 5-10 (in spirit) as PNG",
         description="One tree with a pose whose lobe holds no leaf (its echo is exactly zero, "
         "Fig. 5) and one facing the crown (Figs. 6-7, beams of 10, 20, 50 deg); two trees "
-        "with the 6.2 m circle at 5 m and 4 sample points (Figs. 8-9); two and three trees "
+        "with the circle at 5 m (the paper's 6.2 m, widened where needed to keep 0.5 m from "
+        "every crown) and 4 sample points (Figs. 8-9); two and three trees "
         "with 15 points (Fig. 10); echo images around the circle; a straight run toward a "
         "tree. Also paper_figures.npz with the data behind them.",
         formatter_class=fmt,
@@ -208,8 +211,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     pt = psub.add_parser(
         "table1",
         help="time a whole circle for 1-15 pulses and 1-5 trees, beside the paper's Table 1",
-        description="For T trees from the paper's IPP (conditioned on T), a circle of 6.2 m at "
-        "5 m around their mean position and N pulses at equal angles, time the impulse "
+        description="For T trees from the paper's IPP (conditioned on T), a circle at 5 m "
+        "around their mean position (the paper's 6.2 m, widened where needed to keep 0.5 m "
+        "from every crown) and N pulses at equal angles, time the impulse "
         "computation of the whole circle (one batecho.simulate call) and count the leaves. "
         "Prints a Markdown table beside the paper's MATLAB times, with the settings to rerun.",
         epilog="example:\n  batecho paper table1 --points 1,5 --trees 1,2 --repeats 2",
@@ -283,6 +287,20 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return p
 
 
+def _warning_printer(name: str, fallback: Callable[..., None]) -> Callable[..., None]:
+    """``warnings.showwarning`` that prints batecho's own warnings as one line,
+    ``batecho NAME: warning: ...``, and others as Python does."""
+    from ..forest.clearance import ClearanceWarning
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, ClearanceWarning):
+            print(f"batecho {name}: warning: {message}", file=file or sys.stderr)
+        else:
+            fallback(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 2 user error)."""
     args_list = list(sys.argv[1:] if argv is None else argv)
@@ -295,7 +313,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     name = args.command + (f" {args.paper_command}" if args.command == "paper" else "")
     try:
-        return int(args.func(args) or 0)
+        from ..forest.clearance import ClearanceWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", ClearanceWarning)  # a run's warnings are its news
+            warnings.showwarning = _warning_printer(name, warnings.showwarning)
+            return int(args.func(args) or 0)
     except (
         UserError,
         ScenefileError,

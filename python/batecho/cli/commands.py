@@ -24,11 +24,13 @@ too_close = "skip"        # leave out leaves within 1 cm of a pulse instead of f
 
 [flight]
 path = "circle"
-radius = 6.2              # m, the paper's circle, around the scene's centre
+radius = "clear"          # the smallest radius >= 6.2 m (the paper's) that keeps
+                          # min_clearance_m outside every crown, around the mean tree position
 altitude = {altitude:g}
 heading = "center"        # the sonar looks at the centre of the circle
 speed = 2.0               # m/s
 {flight}
+min_clearance_m = 0.5     # every pulse at least this far from leaves and bark, or refused
 
 [output]
 plots = ["scene", "impulses", "echo_image", "spectrogram"]
@@ -187,6 +189,8 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def _summary(res) -> None:
+    import numpy as np
+
     st, e = res.setup, res.echoes
     n = e.n_leaves
     t = res.timings_s
@@ -203,6 +207,20 @@ def _summary(res) -> None:
         f"(mean {n.mean():.0f}), {int((n == 0).sum())} silent; simulated in "
         f"{t['simulate_s']:.3f} s"
     )
+    if st.plan.radius and st.scenefile.config["flight"]["path"] == "circle":
+        print(
+            f"circle: radius {st.plan.radius:.2f} m around ({st.center_xy[0]:.2f}, "
+            f"{st.center_xy[1]:.2f}) m"
+        )
+    cl = res.clearance
+    if cl is not None:
+        d = cl.distance
+        i = int(np.argmin(d))
+        print(
+            f"clearance: every pulse at least {float(d[i]):.2f} m from leaves and bark "
+            f"(pulse {i}, nearest {cl.part(i)}; margin "
+            f"{st.scenefile.config['flight']['min_clearance_m']:g} m)"
+        )
 
 
 # --------------------------------------------------------------------------- simulate

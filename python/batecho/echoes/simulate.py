@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -9,7 +10,13 @@ import numpy as np
 
 from .. import _core
 from ..flight.poses import Poses
-from ..forest.scene import as_scene
+from ..forest.clearance import (
+    DEFAULT_MIN_CLEARANCE_M,
+    ClearanceWarning,
+    check_margin,
+    low_clearance,
+)
+from ..forest.scene import Scene, as_scene
 from ..sonar.sonar import Sonar
 
 #: The methods of :func:`simulate`.
@@ -62,8 +69,29 @@ def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
     return sonar, poses
 
 
+def warn_low_clearance(scene: Scene, poses: Poses, min_clearance_m: float, stacklevel: int) -> None:
+    """Warn (:class:`ClearanceWarning`) if a pose is closer than ``min_clearance_m`` to a leaf
+    of ``scene`` (one nearest-leaf query per pose, on the BVH)."""
+    if min_clearance_m <= 0:
+        return
+    d, idx = scene.clearance(poses.positions, return_index=True)
+    msg = low_clearance(d, lambda i: f"leaf {int(idx[i])}", poses.positions, min_clearance_m)
+    if msg is not None:
+        warnings.warn(
+            msg + "; move the flight, or pass min_clearance_m=0 to switch this check off",
+            ClearanceWarning,
+            stacklevel=stacklevel + 1,
+        )
+
+
 def simulate(
-    scene: Any, sonar: Sonar, poses: Poses, method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL
+    scene: Any,
+    sonar: Sonar,
+    poses: Poses,
+    method: str = DEFAULT_METHOD,
+    tol: float = DEFAULT_TOL,
+    *,
+    min_clearance_m: float = DEFAULT_MIN_CLEARANCE_M,
 ) -> Echoes:
     """Echoes of ``scene`` (a Scene, or Leaves) for each pose in ``poses``.
 
@@ -78,10 +106,16 @@ def simulate(
     with the authors' reference implementation); pass e.g. ``tol=1e-6`` for speed on large
     scenes (see docs/performance.md).
 
+    ``min_clearance_m`` (m, default 0.5): a pose closer than this to a leaf disk is warned of
+    (:class:`ClearanceWarning`, naming the nearest such pose, its distance and the leaf): the
+    drone would fly through the foliage (docs/model.md §6). ``0`` switches the check off; the
+    echoes are the same either way.
+
     Poses run in parallel in Rust with the GIL released; results are bit-identical for any
     number of threads.
     """
     sonar, poses = _check(sonar, poses)
+    margin = check_margin(min_clearance_m)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     try:
@@ -91,6 +125,7 @@ def simulate(
     if not (0.0 < tol < 1.0):
         raise ValueError(f"tol must be in (0, 1), got {tol!r}")
     sc = as_scene(scene)
+    warn_low_clearance(sc, poses, margin, stacklevel=2)
     if sonar.is_auto:
         # Record from the farthest counting leaf of any pose (the provisional core sonar's
         # record covers the lobe's whole reach, so it finds every counting leaf).
@@ -137,4 +172,12 @@ def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") 
     )
 
 
-__all__ = ["DEFAULT_METHOD", "DEFAULT_TOL", "METHODS", "Echoes", "lobe_members", "simulate"]
+__all__ = [
+    "DEFAULT_METHOD",
+    "DEFAULT_TOL",
+    "METHODS",
+    "Echoes",
+    "lobe_members",
+    "simulate",
+    "warn_low_clearance",
+]

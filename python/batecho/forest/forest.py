@@ -33,6 +33,7 @@ from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
 from ..trees.objfile import write_obj
 from ..trees.tree import Tree
+from .clearance import DEFAULT_MIN_CLEARANCE_M
 from .ipp import PAPER_WINDOW, _as_window, paper_intensity, sample_ipp
 from .scene import Scene
 
@@ -394,6 +395,68 @@ class Forest:
         if self._scene is None:
             self._scene = Scene(self.leaves)
         return self._scene
+
+    def reaches(self, altitude: float | None = None, band: float = 0.0) -> np.ndarray:
+        """(t,) each tree's horizontal reach from its trunk axis, m: the farthest its leaf
+        disks (centre plus radius) and bark triangles extend, as placed and scaled. With
+        ``altitude`` (m), only the parts that come within ``band`` (m) of that height count
+        (a disk spans its centre's height +- its radius, a triangle its corners' heights)."""
+        out = np.zeros(self.n_trees)
+        for i in range(self.n_trees):
+            v = self._variants[self._vi[i]]
+            s = float(self._scales[i])
+            bz = float(v.base[2])
+            c = v.leaves.centers
+            a = v.leaves.radii * (s if self.scale_leaves else 1.0)
+            rho = s * np.hypot(c[:, 0] - v.base[0], c[:, 1] - v.base[1]) + a
+            if altitude is not None:
+                z = bz + s * (c[:, 2] - bz)
+                rho = rho[np.abs(z - altitude) < band + a]
+            tri = v.bark_vertices[v.bark_faces]
+            trho = s * np.hypot(tri[..., 0] - v.base[0], tri[..., 1] - v.base[1]).max(axis=1)
+            if altitude is not None:
+                z = bz + s * (tri[..., 2] - bz)
+                trho = trho[(z.min(axis=1) < altitude + band) & (z.max(axis=1) > altitude - band)]
+            out[i] = max(rho.max(initial=0.0), trho.max(initial=0.0))
+        return out
+
+    def clear_circle_radius(
+        self,
+        center: Any,
+        min_radius: float,
+        margin: float = DEFAULT_MIN_CLEARANCE_M,
+        altitude: float | None = None,
+    ) -> float:
+        """The smallest radius ``>= min_radius`` (m) of a horizontal circle about ``center``
+        (x, y) that passes at least ``margin`` (m) from every tree: tree ``i`` at horizontal
+        distance ``d_i`` from the centre rules out the radii in
+        ``(d_i - reach_i - margin, d_i + reach_i + margin)``, with ``reach_i`` its reach
+        (:meth:`reaches`) over all its parts, or, given the circle's ``altitude`` (m), over
+        the parts within ``margin`` of that height."""
+        c = np.asarray(center, dtype=np.float64).reshape(2)
+        r = float(min_radius)
+        m = float(margin)
+        if not (np.isfinite(c).all() and np.isfinite(r) and r >= 0 and np.isfinite(m) and m >= 0):
+            raise ValueError(
+                f"center must be finite (x, y), min_radius and margin finite and >= 0; got "
+                f"{center!r}, {min_radius!r}, {margin!r}"
+            )
+        d = np.hypot(self._positions[:, 0] - c[0], self._positions[:, 1] - c[1])
+        reach = self.reaches(altitude, m)
+        lo, hi = d - reach - m, d + reach + m
+        while True:
+            inside = (lo < r) & (r < hi)
+            if not inside.any():
+                return r
+            r = float(hi[inside].max())
+
+    def clearance(self, points: Any, *, bark: bool = True) -> np.ndarray:
+        """Distance (m) from each point (n, 3) to the nearest part of the placed forest: its
+        leaf disks (:meth:`Scene.clearance`, on the BVH) and, with ``bark``, its bark
+        triangles (:func:`~batecho.forest.clearance.bark_clearance`). Returns (n,) float64."""
+        from .clearance import solid_clearance
+
+        return solid_clearance(self, points, bark=bark).distance
 
     def bark(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """All bark in place: vertices (v, 3) m, triangles (f, 3) int64 and the tree of each

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, overload
+
+import numpy as np
 
 from .. import _core
+from .._validate import vectors
 from ..trees.leaves import Leaves, as_leaves
 
 
@@ -35,6 +38,25 @@ class Scene:
 
     def __len__(self) -> int:
         return len(self._leaves)
+
+    @overload
+    def clearance(self, points: Any, return_index: Literal[False] = False) -> np.ndarray: ...
+    @overload
+    def clearance(
+        self, points: Any, return_index: Literal[True]
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+    def clearance(self, points: Any, return_index: bool = False) -> Any:
+        """Distance (m) from each point to the nearest leaf disk.
+
+        ``points``: (n, 3) or one (3,) point, m (finite). Returns (n,) float64 distances, the
+        exact point-to-disk distance (docs/model.md §6) minimised over the leaves on the BVH,
+        points in parallel (Rust, GIL released); with ``return_index=True`` also the (n,)
+        int64 index of that leaf (the smallest among equally near leaves). Zero for a point on
+        a leaf.
+        """
+        pts = vectors(points, "points")
+        dist, idx = self._core.clearance(pts)
+        return (dist, idx) if return_index else dist
 
     @property
     def build_time_s(self) -> float:

@@ -1,8 +1,9 @@
 """Matplotlib figures of scenes and echoes. Every function returns the Figure; nothing is shown.
 
 Matplotlib runs with the Agg backend unless another one was chosen already. Units on the axes:
-metres for positions and ranges, milliseconds for time, kHz for frequency, dB re the largest
-value for magnitudes.
+metres for positions and ranges, milliseconds for time, kHz for frequency, the echo's pressure
+relative to the emitted pulse's for impulse responses, dB for magnitudes (re the largest
+value, or for echo images re a high percentile of the envelope).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "echo_image_reference",
     "lobe_surface",
     "plot_echo_image",
     "plot_impulse",
@@ -28,6 +30,8 @@ LEAF_COLOR = "#3a7d2c"
 MEMBER_COLOR = "#d62728"
 BARK_COLOR = "#6b4a2f"
 PATH_COLOR = "#1f4e9e"
+IMPULSE_COLOR = "#9bb7d9"
+ENVELOPE_COLOR = "#1b2a49"
 LOBE_COLORS = ("#ff7f0e", "#9467bd", "#17becf", "#e377c2", "#bcbd22", "#8c564b")
 
 
@@ -51,6 +55,24 @@ def _db(x: np.ndarray, ref: float, power: bool = False) -> np.ndarray:
 # ------------------------------------------------------------------------------- echoes
 
 
+#: The impulse response's axis label: the echo's pressure relative to the emitted pulse's, in
+#: the model's units (docs/model.md §5: ``g G L / (k r^2)`` summed, per metre).
+IMPULSE_LABEL = "echo, relative pressure"
+
+
+def _scale_of(peak: float) -> tuple[float, str]:
+    """The power of ten ``10^e``, ``e = floor(log10(peak))``, that brings ``peak`` to [1, 10),
+    and the label text that names it (``" (x10^-4)"`` in mathtext); ``(1, "")`` for a zero
+    peak or ``e = 0``. (An axis label, not matplotlib's offset text, which collides with a
+    secondary axis on top.)"""
+    if not (peak > 0 and math.isfinite(peak)):
+        return 1.0, ""
+    e = math.floor(math.log10(peak))
+    if e == 0:
+        return 1.0, ""
+    return 10.0**e, rf" ($\times10^{{{e}}}$)"
+
+
 def plot_impulse(
     echoes,
     index: int = 0,
@@ -58,11 +80,20 @@ def plot_impulse(
     envelope: bool = True,
     title: str | None = None,
     max_range_m: float | None = None,
+    *,
+    legend: bool = True,
+    range_axis: bool = True,
 ):
     """Impulse response of pose ``index``: time axis in ms, range (m) on a secondary axis.
 
-    ``max_range_m`` cuts the time axis at that range. A pose whose lobe holds no leaf has an
-    impulse response that is exactly zero; the title says so.
+    The impulse response ``y(t)`` is drawn in a light colour and its envelope
+    ``|analytic signal|`` as a dark line over its upper half, so that both show. Its axis is
+    the echo's pressure relative to the emitted pulse's (docs/model.md §5, a linear scale),
+    scaled by a power of ten named in the label. ``max_range_m`` cuts the time axis at that
+    range. A pose whose lobe holds no leaf has an impulse response that is exactly zero; the
+    title says so.
+    ``legend`` (outside the axes, on the right) and ``range_axis`` (on top) can be left out,
+    e.g. on the inner panels of a grid.
     """
     plt = _plt()
     fig = None
@@ -71,26 +102,24 @@ def plot_impulse(
     t_ms = echoes.times * 1e3
     y = echoes.impulse[index]
     v = echoes.sonar.sound_speed
-    keep = slice(None)
-    if max_range_m is not None:
-        keep = echoes.ranges <= max_range_m
-    ax.plot(t_ms[keep], y[keep], lw=0.6, color="tab:blue", label="impulse response")
+    keep = slice(None) if max_range_m is None else echoes.ranges <= max_range_m
+    scale, unit = _scale_of(float(np.max(np.abs(y[keep]), initial=0.0)))
+    ax.plot(t_ms[keep], y[keep] / scale, lw=0.5, color=IMPULSE_COLOR, label="impulse response")
     if envelope:
         from scipy.signal import hilbert
 
-        ax.plot(
-            t_ms[keep],
-            np.abs(hilbert(y))[keep],
-            lw=0.8,
-            color="tab:orange",
-            label="envelope",
-        )
+        env = np.abs(hilbert(y))[keep] / scale
+        ax.plot(t_ms[keep], env, lw=0.5, color=ENVELOPE_COLOR, alpha=0.85, label="envelope")
+    if not np.any(y[keep]):
+        ax.set_yticks([0.0])
+        ax.text(0.5, 0.62, "no echo", transform=ax.transAxes, ha="center", color="0.4")
     ax.set_xlabel("time (ms)")
-    ax.set_ylabel("amplitude")
-    sec = ax.secondary_xaxis(
-        "top", functions=(lambda t: v * t * 1e-3 / 2, lambda r: 2 * r / v * 1e3)
-    )
-    sec.set_xlabel("range (m)")
+    ax.set_ylabel(IMPULSE_LABEL + unit)
+    if range_axis:
+        sec = ax.secondary_xaxis(
+            "top", functions=(lambda t: v * t * 1e-3 / 2, lambda r: 2 * r / v * 1e3)
+        )
+        sec.set_xlabel("range (m)")
     n = int(echoes.n_leaves[index])
     if title is None:
         title = (
@@ -99,8 +128,30 @@ def plot_impulse(
             else f"pose {index}: {n} leaves in the main lobe"
         )
     ax.set_title(title, fontsize=10)
-    ax.legend(loc="upper right", fontsize=8)
+    if legend:
+        ax.legend(
+            *_impulse_handles(ax),
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            borderaxespad=0.0,
+            fontsize=8,
+        )
     return fig or ax.figure
+
+
+def _impulse_handles(ax) -> tuple[list, list[str]]:
+    """Legend entries for ``ax``'s impulse response and envelope, with lines thick enough to
+    see their colours."""
+    from matplotlib.lines import Line2D
+
+    labels = [ln.get_label() for ln in ax.lines]
+    handles = [
+        Line2D([], [], color=IMPULSE_COLOR, lw=2.0),
+        Line2D([], [], color=ENVELOPE_COLOR, lw=1.5),
+    ]
+    names = ["impulse response", "envelope"]
+    keep = [k for k in range(2) if names[k] in labels]
+    return [handles[k] for k in keep], [names[k] for k in keep]
 
 
 def plot_spectrum(echoes, index: int = 0, ax=None):
@@ -129,7 +180,11 @@ def plot_impulses(
     max_range_m: float | None = None,
     sharey: bool = False,
 ):
-    """A grid of impulse responses, one panel per pose in ``indices`` (``titles`` per panel)."""
+    """A grid of impulse responses, one panel per pose in ``indices`` (``titles`` per panel).
+
+    The panels share the time axis: its label and ticks are on the bottom row only and the
+    range axis on the top row only; one legend below the grid.
+    """
     plt = _plt()
     indices = [int(i) for i in indices]
     if not indices:
@@ -139,17 +194,35 @@ def plot_impulses(
     fig, axes = plt.subplots(
         nrows,
         ncols,
-        figsize=(5 * ncols, 2.8 * nrows),
+        figsize=(5 * ncols, 2.6 * nrows + 0.5),
         squeeze=False,
         constrained_layout=True,
+        sharex=True,
         sharey=sharey,
     )
-    for k, (ax, i) in enumerate(zip(axes.ravel(), indices, strict=False)):
+    flat = axes.ravel()
+    for k, (ax, i) in enumerate(zip(flat, indices, strict=False)):
+        row = k // ncols
         plot_impulse(
-            echoes, i, ax=ax, title=None if titles is None else titles[k], max_range_m=max_range_m
+            echoes,
+            i,
+            ax=ax,
+            title=None if titles is None else titles[k],
+            max_range_m=max_range_m,
+            legend=False,
+            range_axis=row == 0,
         )
-    for ax in axes.ravel()[len(indices) :]:
+        # the bottom panel of each column carries the time axis
+        if k + ncols < len(indices):
+            ax.set_xlabel("")
+            ax.tick_params(labelbottom=False)
+        else:
+            ax.tick_params(labelbottom=True)
+    for ax in flat[len(indices) :]:
         ax.set_visible(False)
+    fig.legend(
+        *_impulse_handles(flat[0]), loc="outside lower center", ncols=2, fontsize=8, frameon=False
+    )
     return fig
 
 
@@ -161,6 +234,25 @@ def _edges(x: np.ndarray) -> np.ndarray:
     return np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
 
 
+#: The percentile of the envelope that the echo image's colours are relative to: a few near
+#: leaves cannot darken the rest of the image.
+ECHO_IMAGE_PERCENTILE = 99.9
+
+
+def echo_image_reference(
+    envelope: np.ndarray, percentile: float = ECHO_IMAGE_PERCENTILE, floor_db: float = 120.0
+) -> float:
+    """The echo image's 0 dB: the ``percentile`` of the samples of ``envelope`` within
+    ``floor_db`` of its largest (the band-limited pulses ring at a level far below that, over
+    the whole record, and would otherwise count as samples when echoes are few); 0 if the
+    envelope is zero."""
+    peak = float(envelope.max(initial=0.0))
+    if not peak > 0:
+        return 0.0
+    live = envelope[envelope >= peak * 10.0 ** (-floor_db / 20.0)]
+    return float(np.percentile(live, percentile))
+
+
 def plot_echo_image(
     echoes,
     ax=None,
@@ -169,22 +261,30 @@ def plot_echo_image(
     x: Any = None,
     xlabel: str | None = None,
     title: str | None = None,
+    percentile: float = ECHO_IMAGE_PERCENTILE,
 ):
-    """Echo "image" along a flight: envelope in dB re the largest, pulses (x) by range (y).
+    """Echo "image" along a flight: the envelope in dB, pulses (x) by range (y).
 
-    ``x`` gives the pulses' coordinates (e.g. pulse times in s, the angle on a circle in deg or
-    the distance to a target in m; monotonic) with ``xlabel``; by default the pulse index.
-    Pulses with no leaf in the lobe show as empty (exactly zero) columns.
+    0 dB is the ``percentile`` (default 99.9) of the envelope's samples in the range shown
+    (those within twice ``dynamic_range_db`` of the largest: :func:`echo_image_reference`), so
+    that one loud echo (a leaf next to the sonar) does not darken the rest; louder
+    samples show in the top colour (the colour bar's arrow), and the image spans
+    ``dynamic_range_db`` below. ``x`` gives the pulses' coordinates (e.g. pulse times in s, the
+    angle on a circle in deg or the distance to a target in m; distinct) with ``xlabel``; by
+    default the pulse index. Pulses with no leaf in the lobe show as empty (exactly zero)
+    columns.
     """
     plt = _plt()
     fig = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
-    env = echoes.envelope()
-    db = _db(env, float(env.max()))
+    if not 0.0 < float(percentile) <= 100.0:
+        raise ValueError(f"percentile must be in (0, 100], got {percentile!r}")
     rng = echoes.ranges
     rmax = rng[-1] if max_range_m is None else float(max_range_m)
     keep = rng <= rmax
+    env = echoes.envelope()[:, keep]
+    db = _db(env, echo_image_reference(env, float(percentile), 2.0 * dynamic_range_db))
     p = len(echoes)
     xs = np.arange(p, dtype=np.float64) if x is None else np.asarray(x, dtype=np.float64)
     if xs.shape != (p,):
@@ -194,7 +294,7 @@ def plot_echo_image(
         raise ValueError("x must have distinct values")
     r_edges = _edges(rng[keep])
     r_edges[0] = max(r_edges[0], 0.0)
-    img = np.where(np.isfinite(db), db, -np.inf)[order][:, keep].T
+    img = np.where(np.isfinite(db), db, -np.inf)[order].T
     im = ax.pcolormesh(
         _edges(xs[order]),
         r_edges,
@@ -211,27 +311,46 @@ def plot_echo_image(
     ax.set_ylim(0, rng[keep][-1])
     if title:
         ax.set_title(title, fontsize=10)
-    (fig or ax.figure).colorbar(im, ax=ax, label="envelope (dB re max)")
+    (fig or ax.figure).colorbar(
+        im, ax=ax, extend="max", label=f"envelope (dB re its {percentile:g}th percentile)"
+    )
     return fig or ax.figure
 
 
-def plot_spectrogram(echoes, index: int = 0, ax=None, nperseg: int = 256):
-    """Spectrogram of the impulse response of pose ``index`` (scipy.signal.spectrogram)."""
+def plot_spectrogram(
+    echoes, index: int = 0, ax=None, nperseg: int = 256, margin_hz: float | None = None
+):
+    """Spectrogram of the impulse response of pose ``index`` (``scipy.signal.spectrogram``,
+    Hann segments of ``nperseg`` samples, 3/4 overlap), in dB re its largest value, 60 dB
+    shown.
+
+    The frequency axis spans the band and ``margin_hz`` on either side (default a quarter of
+    the band's width): the record holds nothing outside the band. The segments are not
+    detrended (SciPy's default removes each segment's mean before the window, which leaves
+    a false line at 0 Hz).
+    """
     from scipy.signal import spectrogram
 
     plt = _plt()
     fig = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(7, 3.5), constrained_layout=True)
+    f_lo, f_hi = echoes.sonar.band_hz
+    pad = 0.25 * (f_hi - f_lo) if margin_hz is None else float(margin_hz)
     f, t, S = spectrogram(
-        echoes.impulse[index], fs=echoes.sonar.fs, nperseg=nperseg, noverlap=nperseg * 3 // 4
+        echoes.impulse[index],
+        fs=echoes.sonar.fs,
+        nperseg=nperseg,
+        noverlap=nperseg * 3 // 4,
+        detrend=False,
     )
     db = _db(S, float(S.max()), power=True)
     db = np.where(np.isfinite(db), db, -120.0)
     im = ax.pcolormesh(t * 1e3, f / 1e3, db, vmin=-60, vmax=0, shading="auto", cmap="magma")
+    ax.set_ylim(max(0.0, f_lo - pad) / 1e3, min(echoes.sonar.fs / 2, f_hi + pad) / 1e3)
     ax.set_xlabel("time (ms)")
     ax.set_ylabel("frequency (kHz)")
-    (fig or ax.figure).colorbar(im, ax=ax, label="dB re max")
+    (fig or ax.figure).colorbar(im, ax=ax, label="power (dB re max)")
     return fig or ax.figure
 
 
@@ -360,6 +479,11 @@ def _trajectory_points(trajectory: Any) -> np.ndarray | None:
     return arr
 
 
+def _drawn(what: str, n: int, shown: int) -> str:
+    """A legend label that says when only some of ``n`` points are drawn."""
+    return f"{what} ({n:,})" if shown == n else f"{what} ({n:,}; {shown:,} drawn)"
+
+
 def _subsample(idx: np.ndarray, k: int, seed: int = 0) -> np.ndarray:
     if len(idx) <= k:
         return idx
@@ -380,11 +504,13 @@ def plot_scene_3d(
     title: str | None = None,
     elev: float = 22.0,
     azim: float = -60.0,
+    lobe_labels: Sequence[str] | None = None,
 ):
     """The 3-D scene: leaves, bark, the flight path, the pulses, the sonar lobes.
 
     ``leaves_or_scene``: Leaves, a Scene, or anything with ``.leaves`` (a tree, a forest, an OBJ
-    Mesh). At most ``max_points`` leaf centres are drawn (a fixed random subset).
+    Mesh). At most ``max_points`` leaf centres are drawn (a fixed random subset; the legend
+    then says how many of how many).
     ``poses``: pulse poses, drawn as markers with a short arrow along the beam axis.
     ``sonar`` and ``lobe_poses`` (indices into ``poses``; default: every pose if there are at
     most 4, else none): the lobe of each is drawn as a translucent surface
@@ -392,10 +518,13 @@ def plot_scene_3d(
     :func:`batecho.lobe_members`), or a list of such arrays. ``trajectory``: a (k, 3) polyline,
     a timed trajectory or a Flight, drawn as a line. ``bark``: None (the object's own bark:
     ``bark_vertices``/``bark_faces``, or a forest's ``bark()``), False, ``(vertices, faces)``
-    or an object with those; at most ``max_bark_faces`` triangles, the largest. Axes have
-    equal scale.
+    or an object with those; at most ``max_bark_faces`` triangles, the largest (the legend
+    says so). The legend, below the axes, keys each lobe to its pulse (or to ``lobe_labels``,
+    one per lobe drawn). Axes have equal scale, with ticks in proportion to their length.
     """
     plt = _plt()
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     leaves = _scene_leaves(leaves_or_scene)
@@ -415,24 +544,31 @@ def plot_scene_3d(
         alpha=0.35,
         linewidths=0,
         depthshade=False,
-        label=f"leaves ({len(leaves)})",
+        label=_drawn("leaves", len(leaves), len(shown)),
     )
+    extra: list = []  # legend entries of what scatter and plot do not label themselves
     bk = _bark_arrays(leaves_or_scene, bark)
     if bk is not None:
         v, f = bk
         tri = v[f]
-        if len(tri) > max_bark_faces:  # the largest triangles: trunk and main branches first
+        n_tri = len(tri)
+        if n_tri > max_bark_faces:  # the largest triangles: trunk and main branches first
             area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
             tri = tri[np.sort(np.argsort(-area, kind="stable")[: int(max_bark_faces)])]
         ax.add_collection3d(
             Poly3DCollection(tri, facecolor=BARK_COLOR, edgecolor="none", alpha=0.6)
         )
+        label = (
+            "bark" if len(tri) == n_tri else f"bark (largest {len(tri):,} of {n_tri:,} triangles)"
+        )
+        extra.append(Patch(facecolor=BARK_COLOR, alpha=0.6, label=label))
         bounds += [v.min(axis=0), v.max(axis=0)]
     if members is not None:
         parts = members if isinstance(members, (list, tuple)) else [members]
         arrs = [np.asarray(m, dtype=np.int64).ravel() for m in parts]
         idx = np.unique(np.concatenate(arrs)) if arrs else np.zeros(0, np.int64)
         if idx.size:
+            n_members = idx.size
             idx = _subsample(idx, int(max_points), seed=2)
             ax.scatter(
                 c[idx, 0],
@@ -443,7 +579,7 @@ def plot_scene_3d(
                 alpha=0.9,
                 linewidths=0,
                 depthshade=False,
-                label="leaves in the lobe",
+                label=_drawn("leaves in a lobe", n_members, idx.size),
             )
     path = _trajectory_points(trajectory)
     if path is not None and len(path):
@@ -477,9 +613,18 @@ def plot_scene_3d(
                 pp[ai, 0], pp[ai, 1], pp[ai, 2], fw[:, 0], fw[:, 1], fw[:, 2], color="k", lw=0.8
             )
         bounds += [pp.min(axis=0), pp.max(axis=0)]
+        if lobe_labels is not None and len(lobe_labels) != len(sel):
+            raise ValueError(f"lobe_labels must name each of the {len(sel)} lobes drawn")
         if sonar is not None:
             for k, i in enumerate(sel):
                 X, Y, Z = lobe_surface(sonar, poses[i])
+                extra.append(
+                    Patch(
+                        facecolor=LOBE_COLORS[k % len(LOBE_COLORS)],
+                        alpha=0.45,
+                        label=f"lobe of pulse {i}" if lobe_labels is None else lobe_labels[k],
+                    )
+                )
                 ax.plot_surface(
                     X,
                     Y,
@@ -512,11 +657,25 @@ def plot_scene_3d(
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
     ax.set_box_aspect(tuple(np.maximum(hi - lo, 1e-3)))
+    # ticks in proportion to each axis's drawn length, so that a short axis's labels do not
+    # overlap
+    spans = np.maximum(hi - lo, 1e-3)
+    for axis, span in zip((ax.xaxis, ax.yaxis, ax.zaxis), spans, strict=True):
+        nbins = max(2, round(7 * float(span / spans.max())))
+        axis.set_major_locator(MaxNLocator(nbins=nbins, steps=[1, 2, 5, 10]))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
     ax.view_init(elev=elev, azim=azim)
-    leg = ax.legend(loc="upper left", fontsize=7)
+    handles, _ = ax.get_legend_handles_labels()
+    leg = ax.legend(
+        handles=handles + extra,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0.0),
+        ncols=3,
+        fontsize=7,
+        frameon=False,
+    )
     for h in getattr(leg, "legend_handles", getattr(leg, "legendHandles", [])):
         if hasattr(h, "set_sizes"):
             h.set_sizes([12.0])

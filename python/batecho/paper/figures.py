@@ -20,10 +20,12 @@ from .settings import (
     DEFAULT_SEED,
     PAPER_ALTITUDE_M,
     PAPER_BEAMWIDTHS_DEG,
+    PAPER_CLEARANCE_M,
     PAPER_RADIUS_M,
     Progress,
     machine_info,
     no_progress,
+    paper_circle_radius,
     paper_sonar,
     tree_settings,
 )
@@ -39,7 +41,7 @@ def _savefig(fig, path: Path, dpi: int) -> Path:
     return path
 
 
-def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str):
+def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str, title: str):
     """A figure: the scene with one pose and its lobe (left), its impulse response (right)."""
     from ..outputs.plots import _plt, plot_impulse, plot_scene_3d
 
@@ -48,17 +50,12 @@ def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str):
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
     plot_scene_3d(forest, pose, sonar, members=members, ax=ax3, lobe_poses=[0], title=title3d)
     ax = fig.add_subplot(1, 2, 2)
-    plot_impulse(echoes, 0, ax=ax)
+    plot_impulse(echoes, 0, ax=ax, title=title)
     return fig
 
 
 def _leaf_centroid(forest) -> np.ndarray:
     return np.asarray(forest.leaves.centers, dtype=np.float64).mean(axis=0)
-
-
-def _crown_radius(forest, xy: np.ndarray) -> float:
-    c = forest.leaves.centers
-    return float(np.max(np.hypot(c[:, 0] - xy[0], c[:, 1] - xy[1])))
 
 
 def paper_figures(
@@ -74,14 +71,14 @@ def paper_figures(
     """Write the paper's Figures 5-10 (in spirit) as PNG files into ``out_dir``; return
     ``{name: path}``.
 
-    * ``fig05_no_leaf_in_lobe.png``: one tree, a pose on the 6.2 m circle (5 m up) whose lobe
+    * ``fig05_no_leaf_in_lobe.png``: one tree, a pose on the circle (5 m up) whose lobe
       (10 deg beam, along the path) holds no leaf, and its impulse response: exactly zero.
     * ``fig06_leaves_in_lobe.png``: the same tree, a pose looking at the crown (20 deg beam),
       the leaves in its lobe highlighted, and its impulse response (Figure 7).
     * ``fig07_impulse_beamwidths.png``: that pose's impulse responses with 10, 20, 50 deg beams.
-    * ``fig08_two_trees_circle.png``: two trees and the circle (radius 6.2 m, 5 m up, around the
-      mean tree position), 4 sample points looking at the centre (20 deg beam), chosen where
-      the lobe holds leaves (spread over a 5 deg grid).
+    * ``fig08_two_trees_circle.png``: two trees and the circle (5 m up, around the mean tree
+      position), 4 sample points looking at the centre (20 deg beam), chosen where the lobe
+      holds leaves (spread over a 5 deg grid).
     * ``fig09_impulses_circle.png``: the impulse responses at those 4 points.
     * ``fig10_two_three_trees.png``: two and three trees, 15 sample points each (50 deg beam).
     * ``echo_image_circle.png``: envelopes of ``echo_pulses`` pulses around the two-tree circle,
@@ -94,8 +91,14 @@ def paper_figures(
 
     Tree positions for two and three trees come from the paper's IPP conditioned on the count;
     the single tree stands at the origin. Leaves within 1 cm of a pulse are left out.
+
+    Every pulse keeps :data:`~batecho.paper.settings.PAPER_CLEARANCE_M` (0.5 m) from leaves
+    and bark: each circle has the paper's radius of 6.2 m where that clears the crowns at 5 m
+    and the smallest wider radius that does otherwise (:func:`paper_circle_radius`); the
+    straight run stops that far outside the crown.
     """
     from ..outputs.plots import (
+        _impulse_handles,
         _plt,
         plot_echo_image,
         plot_impulse,
@@ -111,7 +114,8 @@ def paper_figures(
     written: dict[str, Path] = {}
     data: dict[str, Any] = {}
     bw10, bw20, bw50 = PAPER_BEAMWIDTHS_DEG
-    R, Z = PAPER_RADIUS_M, PAPER_ALTITUDE_M
+    Z = PAPER_ALTITUDE_M
+    radii: dict[str, float] = {}
     steps = ["one tree", "two trees", "three trees", "straight run"]
     wrap = progress or no_progress
     it = iter(wrap(steps, total=len(steps), desc="paper figures"))
@@ -121,6 +125,7 @@ def paper_figures(
     tree_xy = np.zeros(2)
     forest1 = make_forest(tree_xy[None, :], rngs[0], tree_model, tree_params)
     scene1 = Scene(forest1.leaves)
+    R = radii["one_tree"] = paper_circle_radius(forest1, tree_xy)
     s10 = paper_sonar(bw10)
     cands = Poses.concatenate(
         [
@@ -145,6 +150,7 @@ def paper_figures(
         None,
         e5,
         f"Figure 5: no leaf in the main lobe ({bw10:g} deg beam)",
+        "its echo: exactly zero",
     )
     written["fig05"] = _savefig(fig, out / "fig05_no_leaf_in_lobe.png", dpi)
     data["fig05_position"] = empty.positions[0]
@@ -165,16 +171,25 @@ def paper_figures(
         members6,
         e6,
         f"Figure 6: {len(members6)} leaves in the main lobe ({bw20:g} deg beam)",
+        "its echo (Figure 7)",
     )
     written["fig06"] = _savefig(fig, out / "fig06_leaves_in_lobe.png", dpi)
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), constrained_layout=True, sharex=True)
     imp7 = []
-    for ax, bw in zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True):
+    for k, (ax, bw) in enumerate(zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True)):
         e = simulate(scene1, paper_sonar(bw), p6)
         imp7.append(e.impulse[0])
         plot_impulse(
-            e, 0, ax=ax, title=f"Figure 7: {bw:g} deg beam, {e.n_leaves[0]} leaves in the lobe"
+            e,
+            0,
+            ax=ax,
+            title=f"Figure 7: {bw:g} deg beam, {e.n_leaves[0]} leaves in the lobe",
+            legend=False,
+            range_axis=k == 0,
         )
+        if k < len(axes) - 1:
+            ax.set_xlabel("")
+    fig.legend(*_impulse_handles(axes[0]), loc="outside lower center", ncols=2, frameon=False)
     written["fig07"] = _savefig(fig, out / "fig07_impulse_beamwidths.png", dpi)
     data["fig06_position"] = p6.positions[0]
     data["fig06_forward"] = p6.forward[0]
@@ -190,6 +205,7 @@ def paper_figures(
     forest2 = make_forest(pos2, rngs[1], tree_model, tree_params)
     scene2 = Scene(forest2.leaves)
     c2 = pos2.mean(axis=0)
+    R = radii["two_trees"] = paper_circle_radius(forest2, c2)
     # Four sample points where the lobe holds leaves (the paper's "four instances"), spread
     # over the 72 points of a 5 deg grid; the quarter points if fewer than four hold any.
     grid = circle(c2, R, Z, n_points=72, heading="center")
@@ -209,6 +225,7 @@ def paper_figures(
         s20,
         members=m8,
         trajectory=np.vstack([grid.positions, grid.positions[:1]]),
+        lobe_labels=[f"lobe of point {i + 1} ({angles8[i]:g} deg)" for i in range(4)],
         title=f"Figure 8: two trees, circle of {R:g} m at {Z:g} m, 4 sample points "
         f"({bw20:g} deg beam)",
     )
@@ -233,15 +250,18 @@ def paper_figures(
     angles = 360.0 * np.arange(n_e) / n_e
     pe = circle(c2, R, Z, n_points=n_e, heading="center")
     fig, axes = plt.subplots(3, 1, figsize=(9, 9.5), constrained_layout=True, sharex=True)
-    for ax, bw in zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True):
+    for k, (ax, bw) in enumerate(zip(axes, PAPER_BEAMWIDTHS_DEG, strict=True)):
         ee = simulate(scene2, paper_sonar(bw), pe)
         plot_echo_image(
             ee,
             ax=ax,
             x=angles,
             xlabel="angle on the circle (deg)",
-            title=f"Echoes around two trees, looking at the centre ({bw:g} deg beam)",
+            title=f"Echoes around two trees from a {R:g} m circle, looking at the centre "
+            f"({bw:g} deg beam)",
         )
+        if k < len(axes) - 1:
+            ax.set_xlabel("")
         data[f"echo_image_{bw:g}deg_n_leaves"] = ee.n_leaves
     written["echo_image"] = _savefig(fig, out / "echo_image_circle.png", dpi)
     data["echo_image_angles_deg"] = angles
@@ -257,7 +277,9 @@ def paper_figures(
     fig = plt.figure(figsize=(15, 7), constrained_layout=True)
     for k, (forest, scene, pos) in enumerate(((forest2, scene2, pos2), (forest3, scene3, pos3))):
         ax = fig.add_subplot(1, 2, k + 1, projection="3d")
-        p10 = circle(pos.mean(axis=0), R, Z, n_points=15, heading="center")
+        c10 = pos.mean(axis=0)
+        R = radii[f"fig10_{len(pos)}_trees"] = paper_circle_radius(forest, c10)
+        p10 = circle(c10, R, Z, n_points=15, heading="center")
         m10 = [lobe_members(scene, s50, p10[i]) for i in range(len(p10))]
         e10 = simulate(scene, s50, p10)
         plot_scene_3d(
@@ -268,8 +290,8 @@ def paper_figures(
             ax=ax,
             lobe_poses=[0, 5, 10],
             trajectory=np.vstack([p10.positions, p10.positions[:1]]),
-            title=f"Figure 10: {len(pos)} trees, 15 points, {int(e10.n_leaves.sum()):,} "
-            f"leaf echoes ({bw50:g} deg beam)",
+            title=f"Figure 10: {len(pos)} trees, 15 points on a {R:g} m circle, "
+            f"{int(e10.n_leaves.sum()):,} leaf echoes ({bw50:g} deg beam)",
         )
         data[f"fig10_{len(pos)}_trees_n_leaves"] = e10.n_leaves
     written["fig10"] = _savefig(fig, out / "fig10_two_three_trees.png", dpi)
@@ -277,10 +299,11 @@ def paper_figures(
 
     # -- a straight run toward the tree ----------------------------------------------------
     next(it)
-    rc = _crown_radius(forest1, tree_xy)
-    start = [tree_xy[0] - rc - 10.0, tree_xy[1], Z]
+    # the run stops PAPER_CLEARANCE_M outside the crown at its height
+    stop = forest1.clear_circle_radius(tree_xy, 0.0, PAPER_CLEARANCE_M, altitude=Z)
+    start = [tree_xy[0] - stop - 10.0, tree_xy[1], Z]
     target = [tree_xy[0], tree_xy[1], Z]
-    pr = line_to(start, target, n_points=24, stop_distance=rc + 0.5)
+    pr = line_to(start, target, n_points=24, stop_distance=stop)
     er = simulate(scene1, s20, pr)
     dist = np.linalg.norm(pr.positions[:, :2] - tree_xy, axis=1)
     mr = [lobe_members(scene1, s20, pr[i]) for i in (0, len(pr) - 1)]
@@ -320,7 +343,10 @@ def paper_figures(
     settings = {
         "seed": int(seed),
         "tree": tree_settings(tree_model, tree_params),
-        "radius_m": R,
+        "radius_m": radii,
+        "radius_rule": f"the paper's {PAPER_RADIUS_M:g} m where it passes "
+        f"{PAPER_CLEARANCE_M:g} m outside every crown at {Z:g} m, else the smallest wider "
+        "radius that does (batecho.paper.settings.paper_circle_radius)",
         "altitude_m": Z,
         "beamwidths_deg": list(PAPER_BEAMWIDTHS_DEG),
         "sonar": "the model's defaults (docs/model.md) with too_close='skip' and the beamwidth "

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 import os
 import platform
 from collections.abc import Callable, Iterable
@@ -15,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from ..forest.clearance import DEFAULT_MIN_CLEARANCE_M
+from ..forest.forest import Forest
 from ..forest.models import tree_function
 from ..sonar.sonar import Sonar
 
@@ -22,6 +25,7 @@ __all__ = [
     "DEFAULT_SEED",
     "PAPER_ALTITUDE_M",
     "PAPER_BEAMWIDTHS_DEG",
+    "PAPER_CLEARANCE_M",
     "PAPER_MACHINE",
     "PAPER_POINTS",
     "PAPER_RADIUS_M",
@@ -32,6 +36,7 @@ __all__ = [
     "jsonable",
     "machine_info",
     "no_progress",
+    "paper_circle_radius",
     "paper_sonar",
     "tree_settings",
 ]
@@ -39,6 +44,13 @@ __all__ = [
 #: The paper's circle: radius (m) and sonar height (m).
 PAPER_RADIUS_M = 6.2
 PAPER_ALTITUDE_M = 5.0
+#: The paper's circle passes through its own crowns. Its trees are about 8.4 m tall with
+#: crowns from 2.4 m up that reach 3-4 m from the trunk (3 m at the 5 m flight height), and
+#: the IPP's two clumps lie 10.6 m apart, so two or more trees stand about 5 m from their mean
+#: position and the 6.2 m circle passes 1 m from their trunks. Our experiments keep the
+#: 6.2 m where it clears every crown by this margin (m), and otherwise fly the smallest wider
+#: circle that does (:func:`paper_circle_radius`).
+PAPER_CLEARANCE_M = DEFAULT_MIN_CLEARANCE_M
 #: The beamwidths (full -3 dB, degrees) the paper's figures use.
 PAPER_BEAMWIDTHS_DEG = (10.0, 20.0, 50.0)
 #: Table 1's grid: pulse points on the circle, and numbers of trees.
@@ -143,6 +155,18 @@ def machine_info() -> dict[str, Any]:
         "numpy": np.__version__,
         "batecho": _core.__version__,
     }
+
+
+def paper_circle_radius(forest: Forest, center: Any) -> float:
+    """The radius (m) of our circle about ``center``: the paper's 6.2 m if it passes at least
+    :data:`PAPER_CLEARANCE_M` outside every crown at the paper's 5 m height, else the smallest
+    radius that does (:meth:`batecho.Forest.clear_circle_radius`), rounded up to 0.1 m."""
+    r = PAPER_RADIUS_M
+    while True:
+        c = forest.clear_circle_radius(center, r, PAPER_CLEARANCE_M, altitude=PAPER_ALTITUDE_M)
+        if c == r:
+            return r
+        r = math.ceil(round(c * 10.0, 9)) / 10.0
 
 
 def paper_sonar(beamwidth_deg: float, **kw: Any) -> Sonar:

@@ -33,6 +33,7 @@ from .settings import (
     jsonable,
     machine_info,
     no_progress,
+    paper_circle_radius,
     paper_sonar,
     tree_settings,
 )
@@ -173,7 +174,7 @@ class Table1Result:
             f"- trees: {s.get('tree', {}).get('function', '?')} with "
             f"`{json.dumps(s.get('tree', {}).get('params', {}), sort_keys=True)}`",
             f"- positions: {s.get('positions', '')}",
-            f"- flight: circle of radius {s.get('radius_m')} m at {s.get('altitude_m')} m "
+            f"- flight: circle of radius {_radius_text(s)} at {s.get('altitude_m')} m "
             f"around the mean tree position, pulses at equal angles, heading "
             f"`{s.get('heading')}`",
             f"- sonar: `{json.dumps(s.get('sonar', {}), sort_keys=True)}` (other parameters at "
@@ -209,6 +210,17 @@ class Table1Result:
         )
 
 
+def _radius_text(s: dict[str, Any]) -> str:
+    if s.get("radius_m") is not None:
+        return f"{s['radius_m']} m"
+    radii = s.get("radii_m", {})
+    return (
+        f"{PAPER_RADIUS_M:g} m, widened to clear every crown by 0.5 m where it does not ("
+        + ", ".join(f"{k}: {v:g} m" for k, v in radii.items())
+        + ")"
+    )
+
+
 def _grid(values: Sequence[int], name: str) -> tuple[int, ...]:
     out = []
     for v in values:
@@ -228,7 +240,7 @@ def table1(
     beamwidth_deg: float = TABLE1_BEAMWIDTH_DEG,
     *,
     heading: str = "center",
-    radius_m: float = PAPER_RADIUS_M,
+    radius_m: float | None = None,
     altitude_m: float = PAPER_ALTITUDE_M,
     tree_model: str = "grow_tree",
     tree_params: dict | None = None,
@@ -243,8 +255,10 @@ def table1(
     For each number of trees T in ``trees`` and each of ``repeats`` forests: T positions from
     the paper's IPP conditioned on T points (:func:`draw_tree_positions`), a tree grown at
     each (``tree_model``, ``tree_params``), one ``Scene`` for the forest; then for each count N
-    in ``points``, N pulses at equal angles on a circle of ``radius_m`` at ``altitude_m``
-    around the mean tree position, the beam ``heading`` toward the centre (``"center"``) or
+    in ``points``, N pulses at equal angles on a circle at ``altitude_m`` around the mean tree
+    position, of radius ``radius_m`` or by default the paper's 6.2 m widened where needed to
+    clear every crown by 0.5 m (:func:`~batecho.paper.settings.paper_circle_radius`; the
+    radii are in ``settings["radii_m"]``), the beam ``heading`` toward the centre (``"center"``) or
     along the path (``"velocity"``), and the impulse responses of the whole circle in one
     ``batecho.simulate`` call, timed (best of ``timing_runs``, after one warm-up call for the
     whole table). ``sonar_params`` are further :class:`batecho.Sonar` arguments; ``method``
@@ -267,7 +281,8 @@ def table1(
         "repeats": int(repeats),
         "points": list(pts),
         "trees": list(trs),
-        "radius_m": float(radius_m),
+        "radius_m": None if radius_m is None else float(radius_m),
+        "radii_m": {},
         "altitude_m": float(altitude_m),
         "heading": heading,
         "sonar": {"beamwidth_deg": float(beamwidth_deg), "too_close": "skip"}
@@ -302,8 +317,10 @@ def table1(
         grow[j, r], build[j, r] = t1 - t0, t2 - t1
         n_scene[j, r] = scene.n_leaves
         center = np.asarray(pos, dtype=np.float64).mean(axis=0)
+        radius = paper_circle_radius(forest, center) if radius_m is None else float(radius_m)
+        settings["radii_m"][f"T={t}, forest {r}"] = radius
         for i, n in enumerate(pts):
-            poses = circle(center, radius_m, altitude_m, n_points=n, heading=heading)
+            poses = circle(center, radius, altitude_m, n_points=n, heading=heading)
             if not warmed:
                 simulate(scene, sonar, poses, **opts)
                 warmed = True

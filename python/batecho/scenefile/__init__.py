@@ -9,6 +9,7 @@ from .flightplan import FlightPlan
 from .run import (
     RunResult,
     SimulationSetup,
+    check_clearance,
     run_scenefile,
     sample_indices,
     setup_scenefile,
@@ -24,6 +25,7 @@ __all__ = [
     "SceneFile",
     "ScenefileError",
     "SimulationSetup",
+    "check_clearance",
     "run_scenefile",
     "sample_indices",
     "setup_scenefile",

@@ -185,11 +185,14 @@ class SceneFile:
                 raise
             raise self._err(f"[scene] {exc}") from None
 
-    def build_flight(self, center_xy: np.ndarray) -> FlightPlan:
+    def build_flight(self, center_xy: np.ndarray, forest: Any = None) -> FlightPlan:
         """The pulse poses of ``[flight]``; ``center_xy`` is the scene's centre (m), the
-        default centre of circles and figure eights and the default look-at target."""
+        default centre of circles and figure eights and the default look-at target;
+        ``forest``, the scene's :class:`batecho.Forest` (for ``radius = "clear"``)."""
         try:
-            return flight_plan(self.config["flight"], np.asarray(center_xy, dtype=np.float64))
+            return flight_plan(
+                self.config["flight"], np.asarray(center_xy, dtype=np.float64), forest
+            )
         except ScenefileError as exc:
             raise self._err(str(exc)) from None
         except (TypeError, ValueError) as exc:

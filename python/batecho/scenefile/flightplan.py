@@ -11,7 +11,7 @@ import numpy as np
 from ..flight.poses import Poses
 from .schema import ScenefileError
 
-__all__ = ["FlightPlan", "flight_plan"]
+__all__ = ["DEFAULT_RADIUS_M", "FlightPlan", "flight_plan"]
 
 
 @dataclass
@@ -19,7 +19,8 @@ class FlightPlan:
     """Pulse poses and what to draw: ``poses``; ``pulse_times`` (p,) s or None (kinematic
     pulses placed by count); ``path_points`` (k, 3) m, the flown or planned path; ``x`` and
     ``x_label``, the echo image's axis; ``flight``, the :class:`batecho.Flight` when flown;
-    ``closed`` whether the path is a loop."""
+    ``closed`` whether the path is a loop; ``radius``, the radius (m) of a circle or figure
+    eight (0 for other paths)."""
 
     poses: Poses
     pulse_times: np.ndarray | None
@@ -29,9 +30,16 @@ class FlightPlan:
     closed: bool
     flight: Any = None
     trajectory: Any = None
+    radius: float = 0.0
 
 
-def flight_plan(fl: dict[str, Any], center_xy: np.ndarray) -> FlightPlan:
+#: The default radii (m) of a circle (the paper's) and of a figure eight.
+DEFAULT_RADIUS_M = {"circle": 6.2, "figure_eight": 3.1}
+
+
+def flight_plan(fl: dict[str, Any], center_xy: np.ndarray, forest: Any = None) -> FlightPlan:
+    """The poses of the ``[flight]`` table ``fl`` about the scene's centre ``center_xy``;
+    ``forest`` (a :class:`batecho.Forest`) gives ``radius = "clear"`` its radius."""
     from ..flight import kinematic, trajectories
     from ..flight.mount import SonarMount
     from ..flight.vehicle import Quadrotor
@@ -56,13 +64,21 @@ def flight_plan(fl: dict[str, Any], center_xy: np.ndarray) -> FlightPlan:
     mount = SonarMount(**fl["mount"]) if fl.get("mount") else None
     closed = path in ("circle", "figure_eight") or (path == "waypoints" and fl["closed"])
     default_target = np.array([center_xy[0], center_xy[1], z])
+    radius = 0.0  # only circles and figure eights have one
+    given = fl.get("radius", DEFAULT_RADIUS_M.get(path, 0.0))
+    if given == "clear":
+        if forest is None:
+            raise ScenefileError('[flight] radius: "clear" needs a forest or tree scene')
+        radius = forest.clear_circle_radius(
+            center, DEFAULT_RADIUS_M[path], fl["min_clearance_m"], altitude=z
+        )
+    else:
+        radius = float(given)
     if path == "circle":
-        radius = fl.get("radius", 6.2)
         traj: trajectories.Trajectory = trajectories.Circle(
             center, radius, z, fl["speed"], start_angle_deg=fl["start_angle_deg"], **head_kw
         )
     elif path == "figure_eight":
-        radius = fl.get("radius", 3.1)
         traj = trajectories.FigureEight(
             center, radius, z, speed=fl["speed"], start_angle_deg=fl["start_angle_deg"], **head_kw
         )
@@ -101,7 +117,9 @@ def flight_plan(fl: dict[str, Any], center_xy: np.ndarray) -> FlightPlan:
         poses = flight.poses(times, mount=mount)
         step = max(1, len(flight.positions) // 2000)
         path_pts = np.asarray(flight.positions[::step])
-        return FlightPlan(poses, times, path_pts, times, "pulse time (s)", closed, flight, traj)
+        return FlightPlan(
+            poses, times, path_pts, times, "pulse time (s)", closed, flight, traj, radius
+        )
     path_pts = np.asarray(traj.position(np.linspace(0.0, duration, 400)))
     if "n_pulses" in fl and path in ("circle", "line", "figure_eight"):
         # Kinematic pulses by count: the paper's equal angles (circle), equal spacing (line).
@@ -127,6 +145,6 @@ def flight_plan(fl: dict[str, Any], center_xy: np.ndarray) -> FlightPlan:
             xl = "distance flown (m)"
         if mount is not None:
             poses = mount.pose(poses.positions, poses.rotations)
-        return FlightPlan(poses, None, path_pts, x, xl, closed, None, traj)
+        return FlightPlan(poses, None, path_pts, x, xl, closed, None, traj, radius)
     poses = traj.poses(times, mount=mount)
-    return FlightPlan(poses, times, path_pts, times, "pulse time (s)", closed, None, traj)
+    return FlightPlan(poses, times, path_pts, times, "pulse time (s)", closed, None, traj, radius)

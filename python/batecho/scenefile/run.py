@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
+from ..forest.clearance import ClearanceWarning, SolidClearance, low_clearance, solid_clearance
 from ..forest.scene import Scene
 from ..outputs.npz import write_npz
 from ..sonar.beam import Beam
@@ -25,6 +27,7 @@ from .schema import ScenefileError
 __all__ = [
     "RunResult",
     "SimulationSetup",
+    "check_clearance",
     "run_scenefile",
     "sample_indices",
     "setup_scenefile",
@@ -100,7 +103,7 @@ def setup_scenefile(sf: SceneFile) -> SimulationSetup:
     else:
         lo, hi = leaves.bounds()
         center = 0.5 * (lo[:2] + hi[:2])
-    plan = sf.build_flight(center)
+    plan = sf.build_flight(center, obj if pos is not None else None)
     t3 = time.perf_counter()
     return SimulationSetup(
         sf,
@@ -112,6 +115,26 @@ def setup_scenefile(sf: SceneFile) -> SimulationSetup:
         plan,
         {"scene_s": t1 - t0, "bvh_s": t2 - t1, "flight_s": t3 - t2},
     )
+
+
+def check_clearance(st: SimulationSetup) -> SolidClearance:
+    """Every pulse's distance to the nearest leaf and bark. A pulse closer than ``[flight]
+    min_clearance_m`` is refused (:class:`ScenefileError`), or with ``allow_low_clearance =
+    true`` warned of (:class:`batecho.ClearanceWarning`)."""
+    sf, fl = st.scenefile, st.scenefile.config["flight"]
+    pos = st.plan.poses.positions
+    cl = solid_clearance(st.scene_object, pos, scene=st.scene)
+    margin = fl["min_clearance_m"]
+    msg = low_clearance(cl.distance, cl.part, pos, margin, noun="pulse") if margin > 0 else None
+    if msg is not None:
+        if not fl["allow_low_clearance"]:
+            raise ScenefileError(
+                f"{sf.path or '<string>'}: [flight] {msg}. Move the flight (radius, altitude, "
+                "center, positions) or set [flight] allow_low_clearance = true to simulate it "
+                "anyway"
+            )
+        warnings.warn(msg, ClearanceWarning, stacklevel=3)
+    return cl
 
 
 def sample_indices(p: int, k: int, closed: bool) -> np.ndarray:
@@ -130,6 +153,7 @@ class RunResult:
     echoes: Any
     files: list[Path]
     timings_s: dict[str, float]
+    clearance: SolidClearance | None = None
 
 
 def run_scenefile(
@@ -145,13 +169,15 @@ def run_scenefile(
     (first and last band bin: ``impulse = 2 irfft(Y, n_samples)`` with ``Y`` zero outside
     them), ``impulse`` (unless ``impulse = false``), ``times``, ``n_leaves``, ``positions``,
     ``forward``, ``up``, ``left``, ``pulse_times`` (empty for pulses placed by count),
-    ``sample_indices``, ``tree_positions``, ``path_points``, ``seed``, ``config_toml`` (the
+    ``sample_indices``, ``clearance_m`` (each pulse's distance to the nearest leaf or bark),
+    ``tree_positions``, ``path_points``, ``seed``, ``config_toml`` (the
     file as given), ``config_json`` (every table with its defaults), ``sonar_json``,
     ``scene_json``, ``batecho_version`` and, when flown, ``flight_times``,
     ``flight_positions``, ``flight_reference_positions``; the PNG plots of ``[output] plots``
     (``scene_3d.png``, ``impulses.png``, ``echo_image.png``, ``spectrogram.png``,
     ``spectrum.png``) and, with ``[output] obj = true``, ``scene.obj``. ``progress(message)``
-    is told of each step.
+    is told of each step. A pulse closer than ``[flight] min_clearance_m`` to a leaf or bark
+    is refused (see :func:`check_clearance`).
     """
     from ..echoes.simulate import simulate
 
@@ -162,11 +188,19 @@ def run_scenefile(
     st = setup_scenefile(sf)
     cfg = sf.config
     oc = cfg["output"]
+    say("checking the clearance of every pulse from leaves and bark")
+    t0 = time.perf_counter()
+    clearance = check_clearance(st)
+    st.timings_s["clearance_s"] = time.perf_counter() - t0
     say(f"simulating {len(st.plan.poses)} pulses on {st.scene.n_leaves} leaves")
     t0 = time.perf_counter()
     try:
         echoes = simulate(
-            st.scene, st.sonar, st.plan.poses, **simulate_options(cfg["method"], cfg["tol"])
+            st.scene,
+            st.sonar,
+            st.plan.poses,
+            **simulate_options(cfg["method"], cfg["tol"]),
+            min_clearance_m=0.0,  # checked above, bark included
         )
     except ValueError as exc:
         raise ScenefileError(f"{sf.path or '<string>'}: simulating: {exc}") from None
@@ -194,6 +228,7 @@ def run_scenefile(
             "left": echoes.poses.left,
             "pulse_times": np.zeros(0) if st.plan.pulse_times is None else st.plan.pulse_times,
             "sample_indices": idx,
+            "clearance_m": clearance.distance,
             "tree_positions": np.zeros((0, 2)) if st.tree_positions is None else st.tree_positions,
             "path_points": st.plan.path_points,
             "seed": sf.seed,
@@ -217,7 +252,7 @@ def run_scenefile(
         files.append(_write_scene_obj(st, out / "scene.obj"))
     if plots and oc["plots"]:
         files += _plots(st, echoes, idx, out, oc, say)
-    return RunResult(st, echoes, files, timings)
+    return RunResult(st, echoes, files, timings, clearance)
 
 
 def _write_scene_obj(st: SimulationSetup, path: Path) -> Path:

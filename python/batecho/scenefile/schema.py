@@ -21,11 +21,15 @@ and default, and the checks that fill in the defaults of a parsed file.
     mode = "flown"                # or "kinematic"
     quadrotor = "crazyflie"
     pulse_rate_hz = 10            # or n_pulses = 15
+    min_clearance_m = 0.5         # every pulse this far from leaves and bark, or refused
     [flight.mount]                # batecho.SonarMount
     pitch_deg = -5
 
     [output]
     plots = ["scene", "impulses", "echo_image", "spectrogram"]
+
+A flight that brings a pulse closer than ``[flight] min_clearance_m`` (default 0.5 m) to a leaf
+or to bark is refused unless ``[flight] allow_low_clearance = true``.
 
 Every key is checked: an unknown key, a value of the wrong type or out of its choices raises
 :class:`ScenefileError` naming the file, the table and the key. Lengths in metres, times in
@@ -41,6 +45,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
+from ..forest.clearance import DEFAULT_MIN_CLEARANCE_M
 from ..forest.models import TREE_MODELS
 
 __all__ = ["PLOTS", "SCENE_KEYS_BY_KIND", "ScenefileError", "check_document"]
@@ -172,7 +177,12 @@ _FLIGHT = {
     "path": _Opt("str", "circle", choices=_PATHS),
     "mode": _Opt("str", "kinematic", choices=("kinematic", "flown")),
     "center": _Opt("vec2", doc="circle / figure-eight centre (x, y), m; default the scene's"),
-    "radius": _Opt("float", doc="m; default 6.2 (circle), 3.1 (figure eight)"),
+    "radius": _Opt(
+        "float_or_clear",
+        doc='m; default 6.2 (circle), 3.1 (figure eight); "clear" (circle): the smallest '
+        "radius >= 6.2 m that passes min_clearance_m outside every crown at the flight's "
+        "altitude (forest, tree)",
+    ),
     "altitude": _Opt("float", 5.0),
     "heading": _Opt("str", "velocity", choices=_HEADINGS),
     "target": _Opt("vec3", doc="look-at point / end of a line, m"),
@@ -189,6 +199,14 @@ _FLIGHT = {
     "quadrotor": _Opt("str", "crazyflie", choices=("crazyflie", "research")),
     "dt": _Opt("float", 0.002),
     "mount": _table(_MOUNT),
+    "min_clearance_m": _Opt(
+        "float",
+        DEFAULT_MIN_CLEARANCE_M,
+        doc="every pulse keeps this distance from leaves and bark, m (0: no check)",
+    ),
+    "allow_low_clearance": _Opt(
+        "bool", False, doc="simulate (with a warning) a flight closer than min_clearance_m"
+    ),
 }
 _FLIGHT_ONLY = {
     "center": ("circle", "figure_eight"),
@@ -308,6 +326,12 @@ def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
         return _nums(v, 3, where, key, "[x, y, z]")
     if k == "pair":
         return _nums(v, 2, where, key, "two numbers")
+    if k == "float_or_clear":
+        if v == "clear":
+            return v
+        if not _is_num(v) or not math.isfinite(float(v)):
+            raise _fail(where, key, f'expected a number or "clear", got {v!r} ({_tname(v)})')
+        return float(v)
     if k == "float_or_pair":
         if _is_num(v):
             return float(v)
@@ -411,6 +435,17 @@ def check_document(doc: dict) -> dict[str, Any]:
                 f"[flight] {key}: only used with path = {' or '.join(repr(p) for p in paths)}, "
                 f'not "{fl["path"]}"'
             )
+    if fl.get("radius") == "clear" and fl["path"] != "circle":
+        raise ScenefileError('[flight] radius: "clear" is for path = "circle"')
+    if fl.get("radius") == "clear" and sc["kind"] not in ("forest", "tree"):
+        raise ScenefileError(
+            f'[flight] radius: "clear" keeps the circle outside the trees\' reach; it needs '
+            f'[scene] kind = "forest" or "tree", not "{kind}"'
+        )
+    if fl["min_clearance_m"] < 0:
+        raise ScenefileError(
+            f"[flight] min_clearance_m: must be >= 0 (0: no check), got {fl['min_clearance_m']}"
+        )
     if fl["mode"] == "kinematic" and ({"quadrotor", "dt"} & given):
         raise ScenefileError('[flight] quadrotor, dt: only used with mode = "flown"')
     if "n_pulses" in fl and "pulse_rate_hz" in fl:

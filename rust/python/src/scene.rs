@@ -1,11 +1,14 @@
 //! `_core.Scene`: the leaves and their BVH, built once from NumPy arrays.
 
 use batecho::scene::Scene;
-use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use std::sync::Arc;
 
 use crate::{rows3, to_py};
+
+/// Per point, the distance to the nearest leaf (m) and that leaf's index.
+type Clearance<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
 
 /// Leaves and their BVH (obvhs), built once.
 #[pyclass(name = "Scene", module = "batecho._core", frozen)]
@@ -41,6 +44,21 @@ impl PyScene {
     #[getter]
     fn build_time_s(&self) -> f64 {
         self.inner.build_time.as_secs_f64()
+    }
+
+    /// `clearance(points (n,3))`: per point, the distance (m) to the nearest leaf disk and
+    /// that leaf's index (the smallest among equally near leaves), points in parallel.
+    fn clearance<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Clearance<'py>> {
+        let pts = rows3(&points, "points")?;
+        let sc = self.inner.clone();
+        let near = py.detach(move || sc.clearance(&pts)).map_err(to_py)?;
+        let d: Vec<f64> = near.iter().map(|n| n.distance).collect();
+        let i: Vec<i64> = near.iter().map(|n| n.index as i64).collect();
+        Ok((d.into_pyarray(py), i.into_pyarray(py)))
     }
 
     /// Number of BVH nodes.

@@ -1,0 +1,267 @@
+"""Clearance: the distance from points to the nearest leaf disk (Rust, on the BVH) is the NumPy
+reference's brute force to the bit, on the hard cases (points on a disk, on its rim, on its
+axis, in its plane beyond the rim, coincident disks); the bark's triangles; `simulate`'s
+warning; forests' clear circles."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import batecho
+from batecho import ClearanceWarning, reference
+from batecho.forest.clearance import bark_clearance, point_triangle_distances
+
+
+def unit_rows(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def in_plane(n: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Unit vectors perpendicular to the unit rows of ``n``."""
+    u = np.cross(n, rng.normal(size=n.shape))
+    return unit_rows(u)
+
+
+@st.composite
+def scenes_and_points(draw):
+    """A few hundred disks (some coincident, radii 1 mm to 20 cm) and points on them, on
+    their rims, on their axes, in their planes beyond the rims, at their centres and
+    anywhere."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    n = draw(st.integers(1, 400))
+    scale = draw(st.sampled_from([0.5, 5.0, 50.0]))
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(-scale, scale, (n, 3))
+    nv = rng.normal(size=(n, 3))
+    if draw(st.booleans()):
+        nv[: n // 2] = [0.0, 0.0, 1.0]  # flat leaves: exact axis-aligned planes
+    a = np.exp(rng.uniform(np.log(1e-3), np.log(0.2), n))
+    k = draw(st.integers(0, n // 3))
+    c[1 : 1 + k] = c[0]  # coincident disks
+    nv[1 : 1 + k] = nv[0]
+    a[1 : 1 + k] = a[0]
+    leaves = batecho.Leaves(c, nv, a)
+    c, nv, a = leaves.centers, leaves.normals, leaves.radii
+    m = 60
+    j = rng.integers(0, n, m)
+    u = in_plane(nv[j], rng)
+    s = rng.uniform(0.0, 1.0, m)[:, None]
+    pts = np.concatenate(
+        [
+            c[j] + s * a[j, None] * u,  # on the disk
+            c[j] + a[j, None] * u,  # on the rim
+            c[j] + rng.uniform(-2, 2, m)[:, None] * nv[j],  # on the axis
+            c[j] + (1.0 + 3.0 * s) * a[j, None] * u,  # in the plane beyond the rim
+            c[j],  # at the centre
+            rng.uniform(-2 * scale, 2 * scale, (m, 3)),  # anywhere
+        ]
+    )
+    return leaves, pts
+
+
+@given(scenes_and_points())
+def test_the_bvh_clearance_is_the_reference_brute_force_to_the_bit(case):
+    leaves, pts = case
+    got, got_i = batecho.Scene(leaves).clearance(pts, return_index=True)
+    want, want_i = reference.clearance(leaves, pts)
+    assert got.tobytes() == want.tobytes()
+    np.testing.assert_array_equal(got_i, want_i)
+
+
+@given(scenes_and_points())
+def test_coincident_disks_name_the_smallest_index(case):
+    leaves, pts = case
+    _, i = batecho.Scene(leaves).clearance(pts, return_index=True)
+    c = leaves.centers
+    for k in range(len(pts)):
+        twins = np.flatnonzero((c == c[i[k]]).all(axis=1))  # disks equal to the one named
+        assert i[k] == twins.min()
+
+
+def test_a_point_on_a_disk_is_at_distance_zero_to_rounding():
+    rng = np.random.default_rng(1)
+    n = unit_rows(rng.normal(size=(500, 3)))
+    c = rng.uniform(-3, 3, (500, 3))
+    a = rng.uniform(0.01, 0.1, 500)
+    p = c + rng.uniform(0, 0.99, 500)[:, None] * a[:, None] * in_plane(n, rng)
+    d = reference.point_disk_distance(p, c, n, a)
+    assert d.max() < 1e-14
+
+
+def test_a_point_on_the_axis_is_at_its_height():
+    c = np.array([[1.0, 2.0, 3.0]])
+    n = np.array([[0.0, 0.0, 1.0]])
+    p = np.array([[1.0, 2.0, 3.0 + 0.75], [1.0, 2.0, 3.0 - 2.5]])
+    np.testing.assert_array_equal(reference.point_disk_distance(p, c, n, 0.1), [0.75, 2.5])
+
+
+def test_a_point_in_the_plane_beyond_the_rim_is_its_distance_to_the_rim():
+    c = np.zeros((1, 3))
+    n = np.array([[0.0, 0.0, 1.0]])
+    p = np.array([[3.0, 0.0, 0.0], [0.0, -0.5, 0.0]])
+    np.testing.assert_array_equal(reference.point_disk_distance(p, c, n, 0.5), [2.5, 0.0])
+
+
+def test_the_disk_distance_is_the_nearest_of_the_disks_points():
+    """The formula against a dense polar sampling of the disk (an independent check)."""
+    rng = np.random.default_rng(4)
+    n = unit_rows(rng.normal(size=(1, 3)))[0]
+    c, a = np.array([0.3, -0.2, 0.1]), 0.05
+    u = in_plane(n[None], rng)[0]
+    v = np.cross(n, u)
+    r, t = np.meshgrid(np.linspace(0, a, 201), np.linspace(0, 2 * np.pi, 721))
+    disk = c + (r * np.cos(t))[..., None] * u + (r * np.sin(t))[..., None] * v
+    step = a * 2 * np.pi / 720  # the sampling's largest gap
+    for p in rng.uniform(-0.2, 0.4, (40, 3)):
+        sampled = np.linalg.norm(disk - p, axis=-1).min()
+        exact = reference.point_disk_distance(p[None], c[None], n[None], a)[0]
+        assert exact <= sampled + 1e-15
+        assert sampled - exact <= step
+
+
+def test_clearance_takes_one_point_and_leaves_the_callers_array_alone():
+    scene = batecho.Scene(batecho.Leaves([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], [0.1]))
+    p = np.array([0.0, 0.0, 2.0])
+    before = p.copy()
+    np.testing.assert_array_equal(scene.clearance(p), [2.0])
+    np.testing.assert_array_equal(p, before)
+
+
+@pytest.mark.parametrize(
+    ("points", "match"),
+    [
+        ([[0.0, 0.0, np.nan]], "finite"),
+        ([[1e300, 0.0, 0.0]], "point 0"),
+        ([[0.0, 0.0]], r"shape"),
+        ([["a", "b", "c"]], "real numbers"),
+    ],
+)
+def test_bad_points_are_refused_by_name(points, match):
+    scene = batecho.Scene(batecho.Leaves([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], [0.1]))
+    with pytest.raises((ValueError, TypeError), match=match):
+        scene.clearance(points)
+
+
+# -- bark ---------------------------------------------------------------------------------
+
+
+def test_the_triangle_distance_is_the_nearest_of_the_triangles_points():
+    rng = np.random.default_rng(8)
+    tri = rng.uniform(-1, 1, (30, 3, 3))
+    m = 80  # a barycentric grid with m + 1 points along each edge
+    i, j = np.meshgrid(np.arange(m + 1), np.arange(m + 1))
+    keep = i + j <= m
+    w = np.column_stack([i[keep], j[keep], m - i[keep] - j[keep]]) / m
+    for p in rng.uniform(-2, 2, (20, 3)):
+        d = point_triangle_distances(p, tri)
+        for k in range(len(tri)):
+            edge = np.linalg.norm(tri[k] - np.roll(tri[k], 1, axis=0), axis=1).max()
+            sampled = np.linalg.norm(w @ tri[k] - p, axis=1).min()
+            assert d[k] <= sampled + 1e-12
+            assert sampled - d[k] <= edge / m
+
+
+def test_a_degenerate_triangle_is_its_edges():
+    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]])
+    d = point_triangle_distances(np.array([1.5, 3.0, 4.0]), tri)
+    np.testing.assert_allclose(d, [5.0], rtol=1e-15)
+
+
+def test_bark_clearance_with_boxes_first_is_the_brute_force():
+    rng = np.random.default_rng(9)
+    v = rng.uniform(-3, 3, (300, 3))
+    f = rng.integers(0, 300, (200, 3))
+    pts = rng.uniform(-4, 4, (50, 3))
+    d, i = bark_clearance(v, f, pts)
+    brute = np.array([point_triangle_distances(p, v[f]).min() for p in pts])
+    np.testing.assert_array_equal(d, brute)
+    assert (i >= 0).all()
+
+
+def test_bark_beyond_the_bound_is_not_searched():
+    v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    d, i = bark_clearance(v, [[0, 1, 2]], [[0.0, 0.0, 5.0]], upper=[1.0])
+    assert d[0] == np.inf and i[0] == -1
+
+
+# -- forests ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def forest():
+    return batecho.Forest.paper_example(3, variants=2)
+
+
+def test_a_forests_clearance_is_the_nearer_of_its_leaves_and_its_bark(forest):
+    cx, cy = forest.mean_position
+    pts = batecho.circle((cx, cy), 6.2, 5.0, n_points=40).positions
+    leaf = forest.scene().clearance(pts)
+    v, f, _ = forest.bark()
+    bark = np.array([point_triangle_distances(p, v[f]).min() for p in pts])
+    np.testing.assert_array_equal(forest.clearance(pts), np.minimum(leaf, bark))
+    np.testing.assert_array_equal(forest.clearance(pts, bark=False), leaf)
+
+
+def test_the_clear_circle_keeps_the_margin_from_leaves_and_bark(forest):
+    c = forest.mean_position
+    for altitude in (None, 5.0):
+        r = forest.clear_circle_radius(c, 6.2, 0.5, altitude=altitude)
+        assert r >= 6.2
+        pts = batecho.circle(c, r, 5.0, n_points=720).positions
+        # 720 points 2 pi r / 720 apart: the circle between them comes at most half that nearer
+        assert forest.clearance(pts).min() >= 0.5 + np.pi * r / 720
+
+
+def test_a_circle_that_already_clears_the_crowns_keeps_its_radius():
+    one = batecho.Forest.from_positions([[0.0, 0.0]], rng=1)
+    assert one.clear_circle_radius((0.0, 0.0), 6.2, 0.5, altitude=5.0) == 6.2
+
+
+def test_the_paper_circle_passes_through_its_forests_crowns(forest):
+    """Why the experiments widen it: the paper's own geometry."""
+    pts = batecho.circle(forest.mean_position, 6.2, 5.0, n_points=360).positions
+    assert forest.clearance(pts).min() < 0.5
+
+
+# -- simulate's warning -------------------------------------------------------------------
+
+
+def near_leaf_case():
+    leaves = batecho.Leaves([[2.0, 0.0, 0.0], [0.3, 0.0, 0.0]], [[1.0, 0.0, 0.0]] * 2, [0.02] * 2)
+    poses = batecho.Poses([[0.0, 0.0, 0.0], [0.0, 0.0, 5.0]], [[1.0, 0.0, 0.0]] * 2)
+    return leaves, batecho.Sonar(), poses
+
+
+def test_simulate_warns_of_a_pose_closer_than_the_margin_naming_pose_distance_and_margin():
+    leaves, sonar, poses = near_leaf_case()
+    with pytest.warns(ClearanceWarning, match=r"pose 0 .* 0\.3 m from leaf 1.*0\.5 m"):
+        batecho.simulate(leaves, sonar, poses)
+
+
+def test_simulate_says_nothing_when_every_pose_keeps_the_margin():
+    leaves, sonar, poses = near_leaf_case()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        batecho.simulate(leaves, sonar, poses, min_clearance_m=0.25)
+        batecho.simulate(leaves, sonar, poses, min_clearance_m=0)
+
+
+def test_the_check_does_not_change_a_bit_of_the_echoes():
+    leaves, sonar, poses = near_leaf_case()
+    with pytest.warns(ClearanceWarning):
+        checked = batecho.simulate(leaves, sonar, poses)
+    unchecked = batecho.simulate(leaves, sonar, poses, min_clearance_m=0)
+    assert checked.spectrum.tobytes() == unchecked.spectrum.tobytes()
+    assert checked.impulse.tobytes() == unchecked.impulse.tobytes()
+
+
+@pytest.mark.parametrize("bad", [-0.1, np.nan, "half"])
+def test_a_bad_margin_is_refused(bad):
+    leaves, sonar, poses = near_leaf_case()
+    with pytest.raises((ValueError, TypeError), match="min_clearance_m"):
+        batecho.simulate(leaves, sonar, poses, min_clearance_m=bad)
