@@ -87,3 +87,13 @@ def test_unknown_attribute_raises_attribute_error():
 
     with pytest.raises(AttributeError, match="no_such_name"):
         batecho.no_such_name  # noqa: B018
+
+
+def test_the_extension_imported_is_the_stable_abi_build():
+    import batecho._core
+
+    name = Path(batecho._core.__file__).name
+    assert ".cpython-" not in name, (
+        f"batecho imported {batecho._core.__file__}, not the abi3 build: delete the stale "
+        "_core.cpython-*.so an older build left in python/batecho/"
+    )

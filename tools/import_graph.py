@@ -36,6 +36,7 @@ PACKAGE_DIR = ROOT / "python" / "batecho"
 #: sonar -> echoes -> outputs -> scene files, paper, datasets -> command line.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("_core", "_validate", "_geometry", "_random"),
+    ("_resources",),
     ("trees",),
     ("forest",),
     ("flight",),

@@ -15,6 +15,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._core import __version__
+from ._resources import memory_limit, set_memory_limit
 from .echoes.simulate import Echoes, lobe_members, simulate
 from .flight.kinematic import circle, figure_eight, line_to
 from .flight.mount import SonarMount
@@ -125,12 +126,14 @@ __all__ = [
     "load_tree",
     "lobe_members",
     "look_at",
+    "memory_limit",
     "paper",
     "paper_intensity",
     "plotting",
     "run_scenefile",
     "sample_ipp",
     "scenefile",
+    "set_memory_limit",
     "simulate",
     "trajectories",
     "treeplots",

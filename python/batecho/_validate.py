@@ -24,11 +24,10 @@ def finite(arr: np.ndarray, name: str) -> np.ndarray:
     """``arr`` itself; ValueError naming the first entry that is NaN or infinite."""
     bad = ~np.isfinite(arr)
     if bad.any():
-        where = np.argwhere(bad)[0]
-        idx = where[0] if arr.ndim > 0 else ()
+        where = tuple(int(k) for k in np.argwhere(bad)[0])
         raise ValueError(
-            f"{name} must be finite; entry {tuple(where)} is {arr[tuple(where)]}"
-            + (f" (row {idx})" if arr.ndim > 1 else "")
+            f"{name} must be finite; entry {where} is {arr[where]}"
+            + (f" (row {where[0]})" if arr.ndim > 1 else "")
         )
     return arr
 
@@ -47,6 +46,31 @@ def vectors(x: Any, name: str, n: int | None = None, allow_single: bool = True) 
     if n is not None and arr.shape[0] != n:
         raise ValueError(f"{name} has {arr.shape[0]} rows, expected {n}")
     return finite(arr, name)
+
+
+#: The shortest and longest direction vectors normalised (as the core's ``MIN_NORM`` and
+#: ``MAX_NORM``): within them ``|v|^2`` is a normal float64 with room to spare, so ``v / |v|``
+#: is a unit vector to a few ulp. Shorter or longer ones are refused where they enter.
+MIN_NORM = 1e-150
+MAX_NORM = 1e150
+
+
+def unit_rows(v: np.ndarray, name: str, what: str = "row") -> np.ndarray:
+    """``v / |v|`` row by row (``|v|`` summed as the core does); ValueError naming the first
+    row whose length is outside [:data:`MIN_NORM`, :data:`MAX_NORM`] (zero included)."""
+    with np.errstate(over="ignore", under="ignore"):
+        length = np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+    bad = ~((length >= MIN_NORM) & (length <= MAX_NORM))
+    if bad.any():
+        i = int(np.argmax(bad))
+        big = float(np.abs(v[i]).max())
+        true = big * float(np.linalg.norm(v[i] / big)) if big > 0 else 0.0
+        raise ValueError(
+            f"{what} {i}: {name} {v[i]} has length {true:.3g}, outside "
+            f"[{MIN_NORM:g}, {MAX_NORM:g}]: zero, or too short or long to normalise in float64 "
+            "without losing precision; give a direction of ordinary length"
+        )
+    return v / length[:, None]
 
 
 def point3(x: Any, name: str) -> np.ndarray:

@@ -1,5 +1,6 @@
 //! Errors of the pure-Rust core. Every failure is a value, never a panic; the bindings turn
-//! these into Python `ValueError`s with the same message.
+//! these into Python `ValueError`s (`MemoryError` for [`Error::TooLarge`]) with the same
+//! message.
 
 use std::fmt;
 
@@ -17,12 +18,15 @@ pub enum Error {
     },
     /// An OBJ/MTL file could not be read or understood.
     Obj(String),
+    /// A request larger than the memory limit (`budget`), or one the allocator refused; the
+    /// bindings raise `MemoryError`.
+    TooLarge(String),
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::InvalidInput(msg) | Error::Obj(msg) => f.write_str(msg),
+            Error::InvalidInput(msg) | Error::Obj(msg) | Error::TooLarge(msg) => f.write_str(msg),
             Error::TooClose { pose, leaf, range, min_range } => write!(
                 f,
                 "leaf {leaf} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \

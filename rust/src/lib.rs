@@ -7,6 +7,7 @@
 // `!(x <= y)` is used on purpose throughout: it is true for NaN, so NaN never passes a check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod budget;
 pub mod echo;
 pub mod error;
 pub mod fast;

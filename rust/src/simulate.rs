@@ -1,6 +1,7 @@
 //! Echoes for many poses: the lobe query, the band spectrum and the impulse response of each
 //! pose, poses in parallel.
 
+use crate::budget;
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::spectrum::band_spectrum;
 use crate::error::{invalid, Result};
@@ -38,6 +39,26 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// A pose's echoes must be finite: amplitudes beyond f64's range (an enormous gain, beam
+/// amplitude or leaf) are refused, never returned as inf or NaN.
+fn check_finite(pose: usize, re: &[f64], im: &[f64], y: &[f64], sonar: &Sonar) -> Result<()> {
+    // (no early exit: the fold vectorises, and a pose's arrays are short)
+    let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+    if finite(re) && finite(im) && finite(y) {
+        return Ok(());
+    }
+    let p = &sonar.params;
+    invalid(format!(
+        "the echoes of pose {pose} overflow f64 (inf or NaN): the amplitude g G / r^2 times the \
+         leaf factor is beyond 1.8e308 (gain = {:e}, beam amplitudes {:e} and {:e}, spreading {}); \
+         lower the gain or the beam amplitude, or check the leaves' radii",
+        p.gain,
+        p.emitter.amplitude,
+        sonar.receiver().amplitude,
+        p.spreading
+    ))
 }
 
 /// The range (m) of the farthest counting leaf of each pose (0 where none counts); poses in
@@ -106,6 +127,23 @@ pub fn simulate(
         return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method));
     }
     check_leaf_sizes(scene, sonar)?;
+    let m = sonar.n_bins();
+    let n = sonar.params.n_samples;
+    budget::check(
+        budget::echoes_bytes(poses.len(), m, n, with_impulse),
+        || {
+            format!(
+                "simulate of {} poses with n_samples = {n} ({m} band bins{})",
+                poses.len(),
+                if with_impulse {
+                    ", impulses included"
+                } else {
+                    ""
+                }
+            )
+        },
+        "simulate the poses in pieces (poses[i:j]) and join the results",
+    )?;
     let plan = match method {
         Method::Exact => None,
         Method::Fast { tol } => Some(sonar.plans.get(sonar, tol)?),
@@ -120,8 +158,6 @@ pub fn simulate(
             }
         }
     };
-    let m = sonar.n_bins();
-    let n = sonar.params.n_samples;
     // Per pose: spectrum (re, im), impulse, number of counting leaves.
     type PoseOut = (Vec<f64>, Vec<f64>, Vec<f64>, u64);
     let per_pose: Vec<PoseOut> = poses
@@ -151,18 +187,21 @@ pub fn simulate(
             };
             let mut y = Vec::new();
             if with_impulse {
-                y = vec![0.0; n];
+                y = budget::filled(n, 0.0, "the impulse response")?;
                 impulse_from_band(n, sonar.k0, &re, &im, &mut y);
             }
+            check_finite(i, &re, &im, &y, sonar)?;
             Ok((re, im, y, count))
         })
         .collect::<Result<Vec<_>>>()?;
+    let what = "simulate's output";
+    let p = poses.len();
     let mut out = Echoes {
         n_bins: m,
-        spectrum_re: Vec::with_capacity(poses.len() * m),
-        spectrum_im: Vec::with_capacity(poses.len() * m),
-        impulse: Vec::with_capacity(if with_impulse { poses.len() * n } else { 0 }),
-        n_leaves: Vec::with_capacity(poses.len()),
+        spectrum_re: budget::with_capacity(p.saturating_mul(m), what)?,
+        spectrum_im: budget::with_capacity(p.saturating_mul(m), what)?,
+        impulse: budget::with_capacity(if with_impulse { p.saturating_mul(n) } else { 0 }, what)?,
+        n_leaves: budget::with_capacity(p, what)?,
     };
     for (re, im, y, c) in per_pose {
         out.spectrum_re.extend_from_slice(&re);

@@ -48,6 +48,16 @@ def _positive_int(text: str) -> int:
     return v
 
 
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 0 <= v < 2**128:
+        raise argparse.ArgumentTypeError(f"a seed is an integer in [0, 2^128), got {text!r}")
+    return v
+
+
 def _positive_float(text: str) -> float:
     try:
         v = float(text)
@@ -131,7 +141,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         formatter_class=fmt,
     )
     d.add_argument("--out", default="demo-out", help="output folder (default: demo-out)")
-    d.add_argument("--seed", type=int, default=2017, help="random seed (default: 2017)")
+    d.add_argument("--seed", type=_seed, default=2017, help="random seed (default: 2017)")
     d.add_argument("--trees", type=_positive_int, default=3, help="number of trees (default 3)")
     d.add_argument(
         "--beamwidth", type=_beamwidth, default=30.0, help="sonar beamwidth, deg (default 30)"
@@ -165,7 +175,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     )
     s.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     s.add_argument("--out", help="output folder (default: ./SCENE-out, named after the file)")
-    s.add_argument("--seed", type=int, help="override the file's seed")
+    s.add_argument("--seed", type=_seed, help="override the file's seed")
     s.add_argument("--no-plots", action="store_true", help="write the NPZ only")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     s.set_defaults(func=run_simulate)
@@ -191,7 +201,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         formatter_class=fmt,
     )
     pf.add_argument("--out", default="paper-figures", help="output folder")
-    pf.add_argument("--seed", type=int, default=2021, help="random seed (default 2021)")
+    pf.add_argument("--seed", type=_seed, default=2021, help="random seed (default 2021)")
     pf.add_argument(
         "--echo-pulses",
         type=_positive_int,
@@ -243,7 +253,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         default=3,
         help="simulate calls per cell, the fastest kept (default 3)",
     )
-    pt.add_argument("--seed", type=int, default=2021, help="random seed (default 2021)")
+    pt.add_argument("--seed", type=_seed, default=2021, help="random seed (default 2021)")
     pt.add_argument(
         "--beamwidth",
         type=_beamwidth,
@@ -328,6 +338,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         IsADirectoryError,
         PermissionError,
         RuntimeError,
+        MemoryError,
     ) as exc:
         print(f"batecho {name}: error: {exc}", file=sys.stderr)
         return 2

@@ -13,6 +13,7 @@ Needs ``zarr >= 3``; ``xarray`` to open the store, ``dask[distributed]`` for clu
 
 from __future__ import annotations
 
+from .guard import StoreLockedError
 from .pipeline import (
     GenerateReport,
     Sample,
@@ -65,6 +66,7 @@ __all__ = [
     "SonarSpec",
     "SpecError",
     "SpecMismatchError",
+    "StoreLockedError",
     "VerifyReport",
     "compute_chunk",
     "draw_sample",

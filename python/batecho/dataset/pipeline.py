@@ -17,6 +17,7 @@ work stealing, and retrying a chunk whose worker died.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import multiprocessing
 import os
@@ -33,6 +34,7 @@ import numpy as np
 from ..echoes.simulate import Echoes, lobe_members, simulate
 from ..flight.poses import Poses
 from ..sonar.sonar import Sonar
+from .guard import StoreLock, watch_parent
 from .scenes import BuiltScene, build_scene, scene_label_names
 from .spec import DatasetSpec
 from .store import StoreLike, _is_url, _zarr, open_for_generate, schema, write_chunk
@@ -242,9 +244,11 @@ _WORKER_SCENES = SceneCache()
 _WORKER_GROUPS: OrderedDict[tuple[str, str], Any] = OrderedDict()
 
 
-def _init_worker(rayon_threads: int) -> None:
-    """Process-pool initializer: bound the Rust thread pool before its first use."""
+def _init_worker(rayon_threads: int, run_pid: int) -> None:
+    """Process-pool initializer: bound the Rust thread pool before its first use, and end
+    this worker when the run (process ``run_pid``) dies."""
     os.environ.setdefault("RAYON_NUM_THREADS", str(rayon_threads))
+    watch_parent(run_pid)
 
 
 def _run_chunk(store: str, spec_toml: str, k: int) -> tuple[int, int, float]:
@@ -373,7 +377,7 @@ def _run_local(
         max_workers=workers,
         mp_context=_mp_context(),
         initializer=_init_worker,
-        initargs=(max(1, cpus // workers),),
+        initargs=(max(1, cpus // workers), os.getpid()),
     ) as ex:
         futures = {ex.submit(_run_chunk, store, text, k): k for k in todo}
         pending = set(futures)
@@ -424,8 +428,12 @@ def generate(
     address such as ``"tcp://10.0.0.1:8786"``) runs each chunk as a task on that Dask cluster;
     the workers must reach ``store`` (a shared file system, or an object-store URL).
 
-    A store that already holds this spec is resumed: complete chunks are skipped, the others
-    computed. A store made from another spec, or not by batecho, is refused.
+    A store that already holds this spec is resumed: complete chunks are re-checked against
+    their checksums and skipped (a damaged one is computed again), the others computed. A
+    store made from another spec, or not by batecho, is refused. A local store is locked
+    (``OUT.zarr.lock`` beside it) while this runs: a second ``generate`` on it raises
+    :class:`~batecho.dataset.guard.StoreLockedError`. Local workers end when this process
+    dies, however it dies.
     """
     spec = _as_spec(spec)
     if workers is not None and (
@@ -444,7 +452,10 @@ def generate(
         from distributed import Client
 
         client = own_client = Client(client)
+    held = contextlib.ExitStack()
     try:
+        if not _is_url(name):
+            held.enter_context(StoreLock(name))  # one generate per store
         g, markers = open_for_generate(name, spec)
         todo = [k for k in range(spec.n_chunks) if markers[k] == 0]
         done = spec.n_samples - sum(len(range(*spec.chunk_range(k))) for k in todo)
@@ -469,6 +480,7 @@ def generate(
         finally:
             bar.close()
     finally:
+        held.close()
         if own_client is not None:
             own_client.close()
     computed = sum(len(range(*spec.chunk_range(k))) for k in todo)

@@ -22,6 +22,8 @@ chunk's data, which :func:`verify` recomputes.
 from __future__ import annotations
 
 import hashlib
+import os
+import shutil
 import time
 import warnings
 from collections.abc import Mapping
@@ -285,14 +287,16 @@ def _layout_problems(g: Any, spec: DatasetSpec) -> list[str]:
     for name, (_dims, values, _, _) in coordinates(spec).items():
         expected[name] = (values.shape, str(values.dtype), None)
     expected[MARKER] = ((spec.n_chunks,), "uint64", (1,))
-    try:
-        present = dict(g.arrays())
-    except Exception as exc:
-        return [f"cannot list the arrays ({exc})"]
     for name, (shape, dtype, chunks) in expected.items():
-        a = present.get(name)
-        if a is None:
+        # One array at a time (not g.arrays(), whose concurrent reads leave tasks behind on
+        # the first broken metadata file).
+        try:
+            a = g[name]
+        except KeyError:
             problems.append(f"array {name!r} is missing")
+            continue
+        except Exception as exc:
+            problems.append(f"array {name!r} has unreadable metadata ({_why(exc)})")
             continue
         if tuple(a.shape) != shape or str(a.dtype) != dtype:
             problems.append(
@@ -300,6 +304,77 @@ def _layout_problems(g: Any, spec: DatasetSpec) -> list[str]:
             )
         elif chunks is not None and tuple(a.chunks) != chunks:
             problems.append(f"array {name!r} has chunks {a.chunks}, expected {chunks}")
+    return problems
+
+
+def _why(exc: BaseException) -> str:
+    """An exception as a short reason: its type and first line."""
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0][:200]}" if text else type(exc).__name__
+
+
+def _coordinate_problems(g: Any, spec: DatasetSpec) -> list[str]:
+    """The coordinate arrays must hold exactly what the spec makes of them."""
+    problems = []
+    for name, (_dims, values, _, _) in coordinates(spec).items():
+        try:
+            stored = np.asarray(g[name][...])
+        except Exception as exc:
+            problems.append(f"coordinate {name!r} cannot be read ({_why(exc)})")
+            continue
+        if stored.shape != values.shape or stored.tobytes() != values.tobytes():
+            bad = (
+                int(np.count_nonzero(stored != values))
+                if stored.shape == values.shape
+                else stored.size
+            )
+            problems.append(
+                f"coordinate {name!r} differs from what the spec gives ({bad} of "
+                f"{values.size} values)"
+            )
+    return problems
+
+
+#: Compressors whose settings change how a chunk is stored, not what it holds: their
+#: configuration may differ between zarr versions and is not compared.
+_COMPRESSORS = ("zstd", "blosc", "gzip")
+
+
+def _comparable(meta: Any) -> Any:
+    """An array's metadata as compared by verify (JSON types; NaN fill values as text)."""
+    import json
+
+    d = json.loads(json.dumps(meta.to_dict(), default=str))
+    d["codecs"] = [
+        {"name": c.get("name")} if c.get("name") in _COMPRESSORS else c for c in d.get("codecs", [])
+    ]
+    return d
+
+
+def _metadata_problems(g: Any, spec: DatasetSpec) -> list[str]:
+    """Every array's metadata (attributes, dimension names, fill value, codecs) must be what
+    the spec lays out: built afresh in a temporary folder and compared."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="batecho-verify-") as tmp:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            expected = _lay_out(Path(tmp) / "expected.zarr", spec, False)
+        return _compare_metadata(g, expected)
+
+
+def _compare_metadata(g: Any, expected: Any) -> list[str]:
+    """The arrays of group ``g`` whose metadata differs from that of ``expected``'s."""
+    problems = []
+    for name, want in expected.arrays():
+        try:
+            got = g[name]
+        except Exception:  # (missing or unreadable: the layout check names it)
+            continue
+        a, b = _comparable(got.metadata), _comparable(want.metadata)
+        if a != b:
+            keys = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+            problems.append(f"array {name!r} has altered metadata ({', '.join(keys)})")
     return problems
 
 
@@ -326,6 +401,22 @@ def _consolidate(store: StoreLike) -> None:
 
 
 def _create(store: StoreLike, spec: DatasetSpec, overwrite: bool = False) -> Any:
+    """Lay out a new store. A local store is built beside its path (``OUT.zarr.partial``)
+    and renamed into place when whole, so that a run killed while creating it leaves no
+    half-made store (the caller holds the store's lock)."""
+    if _is_url(store):
+        return _lay_out(store, spec, overwrite)
+    path = Path(store)
+    partial = path.with_name(path.name + ".partial")
+    shutil.rmtree(partial, ignore_errors=True)
+    _lay_out(partial, spec, False)
+    if path.exists():
+        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    os.replace(partial, path)
+    return _zarr().open_group(str(store), mode="r+", use_consolidated=False)
+
+
+def _lay_out(store: StoreLike, spec: DatasetSpec, overwrite: bool) -> Any:
     zarr = _zarr()
     from .._core import __version__
 
@@ -451,11 +542,24 @@ def open_for_generate(store: StoreLike, spec: DatasetSpec) -> tuple[Any, np.ndar
         )
     g = _zarr().open_group(str(store), mode="r+", use_consolidated=False)
     problems = _layout_problems(g, spec)
+    problems = problems or _coordinate_problems(g, spec)
     if problems:
         raise DatasetError(f"{store} is corrupt: " + "; ".join(problems[:8]))
     if g.metadata.consolidated_metadata is None:  # cut short just before consolidating
         _consolidate(store)
-    return g, _read_markers(g, spec.n_chunks)
+    markers = _read_markers(g, spec.n_chunks)
+    # A chunk marked complete is trusted only if its data still matches its checksum: one
+    # damaged since (a disk error, a hand edit) is computed again.
+    for k in np.flatnonzero(markers):
+        found = _chunk_problems(g, spec, int(k), int(markers[k]))
+        if found:
+            warnings.warn(
+                f"{store}: chunk {int(k)} was marked complete but is damaged ({found[0]}); "
+                "computing it again",
+                stacklevel=2,
+            )
+            markers[k] = 0
+    return g, markers
 
 
 def write_chunk(g: Any, spec: DatasetSpec, k: int, block: Mapping[str, np.ndarray]) -> int:
@@ -506,8 +610,15 @@ class VerifyReport:
 
 def _chunk_problems(g: Any, spec: DatasetSpec, k: int, marker: int) -> list[str]:
     i0, i1 = spec.chunk_range(k)
-    block = {v.name: np.asarray(g[v.name][i0:i1]) for v in schema(spec)}
+    block = {}
     problems = []
+    for v in schema(spec):
+        try:
+            block[v.name] = np.asarray(g[v.name][i0:i1])
+        except Exception as exc:
+            problems.append(f"chunk {k}: array {v.name!r} cannot be read ({_why(exc)})")
+    if problems:
+        return problems
     if chunk_checksum(block) != int(marker):
         problems.append(f"chunk {k} (samples {i0}..{i1 - 1}): data does not match its checksum")
     for v in schema(spec):
@@ -536,6 +647,7 @@ def verify(store: StoreLike, deep: bool = True) -> VerifyReport:
         raise DatasetError(f"{store} does not exist (no zarr store there)")
     spec = read_spec(store, g)
     problems = _layout_problems(g, spec)
+    problems = problems or _metadata_problems(g, spec) + _coordinate_problems(g, spec)
     if problems:
         raise DatasetError(f"{store} is corrupt: " + "; ".join(problems[:8]))
     markers = _read_markers(g, spec.n_chunks)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._resources import BYTES_PER_LEAF, check_memory
+from .._validate import finite_scalar, positive_scalar
 from ..flight.poses import Poses
 from ..sonar.sonar import Sonar
 from ..trees.leaves import Leaves
@@ -26,10 +28,30 @@ def canonical_leaf_box(
     x axis (the sonar's axis) with a uniform azimuth around it."""
     if not isinstance(rng, np.random.Generator):
         raise TypeError("rng must be a numpy.random.Generator (np.random.default_rng(seed))")
+    density = positive_scalar(density_per_m3, "density_per_m3")
+    radius_mean_m = positive_scalar(radius_mean_m, "radius_mean_m", unit="m")
+    # (+ 0.0 turns -0.0 into 0.0, which NumPy's normal takes as a scale)
+    radius_sd_m = positive_scalar(radius_sd_m, "radius_sd_m", allow_zero=True, unit="m") + 0.0
+    normal_angle_mean_deg = finite_scalar(normal_angle_mean_deg, "normal_angle_mean_deg")
+    normal_angle_sd_deg = (
+        positive_scalar(normal_angle_sd_deg, "normal_angle_sd_deg", allow_zero=True) + 0.0
+    )
     (x0, x1), (y0, y1), (z0, z1) = box
-    n = round(density_per_m3 * (x1 - x0) * (y1 - y0) * (z1 - z0))
+    for axis, lo, hi in (("x", x0, x1), ("y", y0, y1), ("z", z0, z1)):
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ValueError(f"box: the {axis} range must be finite with lo < hi, got [{lo}, {hi}]")
+    volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+    check_memory(
+        density * volume * BYTES_PER_LEAF,
+        f"a leaf box of {density * volume:.3g} leaves (density_per_m3 = {density:g} in "
+        f"{volume:.3g} m^3)",
+        "lower density_per_m3 or shrink the box",
+    )
+    n = round(density * volume)
     if n < 1:
-        raise ValueError("the box holds no leaf at this density")
+        raise ValueError(
+            f"the box holds no leaf at density_per_m3 = {density:g} (volume {volume:.3g} m^3)"
+        )
     centers = np.column_stack(
         [rng.uniform(x0, x1, n), rng.uniform(y0, y1, n), rng.uniform(z0, z1, n)]
     )

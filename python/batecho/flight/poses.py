@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import crosses, dots, norms
-from .._validate import readonly, vectors
+from .._validate import readonly, real_array, unit_rows, vectors
 
 
 class Poses:
@@ -22,6 +22,8 @@ class Poses:
     up : array_like, shape (p, 3) or (3,), default (0, 0, 1)
         Up hint, re-orthogonalised against ``forward``; must not be parallel to it.
 
+    Notes
+    -----
     Azimuth is positive toward ``left = up x forward`` and elevation positive toward ``up``.
     """
 
@@ -34,12 +36,8 @@ class Poses:
             raise ValueError("Poses needs at least one pose; got empty arrays")
         f = vectors(forward, "forward", p)
         u = vectors(up, "up", p)
-        nf = norms(f)
-        bad = ~(nf > 0) | ~np.isfinite(nf)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(f"pose {i}: forward vector {f[i]} has zero length")
-        d = f / nf[:, None]
+        d = unit_rows(f, "forward", "pose")
+        unit_rows(u, "up", "pose")  # (only its length is checked here)
         ud = dots(u, d)
         uo = u - ud[:, None] * d
         nu = norms(uo)
@@ -134,7 +132,9 @@ class Poses:
 
     def transformed(self, rotation: Any = None, translation: Any = (0.0, 0.0, 0.0)) -> Poses:
         """Poses moved rigidly: ``x -> R x + t``; the frames rotate with them."""
-        R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
+        R = np.eye(3) if rotation is None else real_array(rotation, "rotation")
+        if R.shape != (3, 3) or not np.isfinite(R).all():
+            raise ValueError(f"rotation must be a finite 3x3 matrix, got shape {R.shape}")
         t = vectors(translation, "translation")[0]
         return Poses(self._positions @ R.T + t, self._forward @ R.T, self._up @ R.T)
 

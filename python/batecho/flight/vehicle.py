@@ -33,17 +33,27 @@ loop with ``scipy.integrate.solve_ivp`` (DOP853) instead, as a cross-check.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .. import _core
+from .._resources import SlowWarning, check_memory
 from .._validate import finite, positive_scalar, readonly, real_array, vectors
 from ._so3 import E3, cross3, hat, orthonormalise, triple
 from .controller import SE3Gains, desired_attitude, flat_reference, se3_control
 from .record import Flight
 from .trajectories import Trajectory
+
+#: A flight of more steps than this says first that it will run for minutes in NumPy (the RK4
+#: loop takes a few hundred microseconds a step; the Rust one, a few microseconds).
+SLOW_STEPS = 200_000
+
+#: Memory per recorded step of a flight (bytes): the state, the reference, the commands, the
+#: wind and the integrator's temporaries.
+BYTES_PER_STEP = 1000.0
 
 __all__ = ["FLY_METHODS", "GRAVITY", "Gusts", "QuadState", "Quadrotor"]
 
@@ -385,7 +395,20 @@ class Quadrotor:
             )
         if method not in FLY_METHODS:
             raise ValueError(f"method must be one of {FLY_METHODS}, got {method!r}")
-        n = math.ceil(T / h - 1e-9)
+        steps = T / h
+        check_memory(
+            steps * BYTES_PER_STEP,
+            f"a flight of duration {T:g} s at dt = {h:g} s ({steps:.3g} steps)",
+            "use a larger dt, or fly a shorter duration in parts (initial_state=)",
+        )
+        if method != "rust" and steps > SLOW_STEPS:
+            warnings.warn(
+                f"a flight of {steps:.3g} steps (duration {T:g} s / dt {h:g} s) runs for "
+                "minutes; a larger dt or method='rust' is faster",
+                SlowWarning,
+                stacklevel=2,
+            )
+        n = math.ceil(steps - 1e-9)
         times = np.minimum(np.arange(n + 1) * h, T)
         state = self.initial_state(trajectory) if initial_state is None else initial_state
         if not isinstance(state, QuadState):

@@ -20,6 +20,8 @@ generator, so it does not depend on how many trees are grown or in which order.
 from __future__ import annotations
 
 import os
+import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -28,18 +30,36 @@ import numpy as np
 
 from .._geometry import rot_z
 from .._random import generator, int_seed, spawn
+from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
 from .._validate import integer, positive_scalar
 from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
 from ..trees.objfile import write_obj
 from ..trees.tree import Tree
-from .clearance import DEFAULT_MIN_CLEARANCE_M
+from .clearance import DEFAULT_MIN_CLEARANCE_M, BarkGrid
 from .ipp import PAPER_WINDOW, _as_window, paper_intensity, sample_ipp
 from .scene import Scene
 
 __all__ = ["Forest"]
 
 TreeFactory = Callable[..., Tree]
+
+
+def guard_forest(t: int, n_grow: int, leaves_per_tree: int, first_s: float) -> None:
+    """Before growing the rest of a forest: its leaves must fit the memory limit, and a growth
+    of more than a minute says so first (:class:`batecho._resources.SlowWarning`)."""
+    check_memory(
+        t * leaves_per_tree * BYTES_PER_LEAF,
+        f"a forest of {t} trees of about {leaves_per_tree} leaves",
+        "use fewer trees (a smaller window or intensity, n_trees) or smaller trees",
+    )
+    if n_grow * first_s > SLOW_S:
+        warnings.warn(
+            f"growing {n_grow} trees takes about {n_grow * first_s / 60:.0f} min "
+            f"({first_s:.2g} s for the first); pass variants=k to grow k and reuse them",
+            SlowWarning,
+            stacklevel=4,
+        )
 
 
 class Forest:
@@ -124,6 +144,7 @@ class Forest:
         self._leaves: Leaves | None = None
         self._scene: Scene | None = None
         self._bark: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._bark_grid: BarkGrid | None = None
 
     # -- construction ---------------------------------------------------------------------------
 
@@ -247,7 +268,14 @@ class Forest:
             n_grow = min(k, t) if variants is None else k
             vi = np.arange(t) if variants is None else place.permutation(np.arange(t) % k)
             kwargs = dict(tree_params or {})
-            vs = [tree(g, **kwargs) for g in spawn(tree_gen, n_grow)] if n_grow else []
+            # The first tree alone, to size the rest before growing them (the children of a
+            # generator spawned one, then n - 1, are those spawned n at once).
+            t0 = time.perf_counter()
+            vs = [tree(g, **kwargs) for g in spawn(tree_gen, 1)] if n_grow else []
+            if vs and isinstance(vs[0], Tree):
+                guard_forest(t, n_grow, vs[0].n_leaves, time.perf_counter() - t0)
+            if n_grow > 1:
+                vs += [tree(g, **kwargs) for g in spawn(tree_gen, n_grow - 1)]
             for i, v in enumerate(vs):
                 if not isinstance(v, Tree):
                     raise TypeError(f"tree(...) must return a Tree; call {i} gave {type(v)}")
@@ -478,6 +506,14 @@ class Forest:
             for a in self._bark:
                 a.setflags(write=False)
         return self._bark
+
+    def bark_grid(self) -> BarkGrid:
+        """The bark triangles filed by horizontal cells for nearest-triangle queries
+        (:class:`~batecho.forest.clearance.BarkGrid`; built once, on first call)."""
+        if self._bark_grid is None:
+            v, f = self.bark()[:2]
+            self._bark_grid = BarkGrid(v, f)
+        return self._bark_grid
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounding box ``(min, max)`` of all leaf disks and bark, m."""

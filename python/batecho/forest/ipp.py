@@ -174,6 +174,8 @@ class RasterIntensity:
     extent : (xmin, xmax, ymin, ymax)
         Outer cell edges of the raster, m.
 
+    Notes
+    -----
     Calling it as ``f(x, y)`` looks up the cell of each point; points outside the extent get 0.
     The outer edges ``x = xmax`` and ``y = ymax`` belong to the last column / row.
     """
@@ -302,6 +304,8 @@ class SquaredExponentialMixture:
     weights : array_like, shape (k,)
         Peak intensity ``w_j`` of each bump, points per m^2, >= 0.
 
+    Notes
+    -----
     Vectorised: ``f(x, y)`` takes arrays of any (broadcastable) shape. The fields are stored
     as read-only float64 arrays; ``length_scales`` always as (k, 2).
     """

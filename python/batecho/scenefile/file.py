@@ -76,9 +76,12 @@ class SceneFile:
             raise ScenefileError(f"{p}: not UTF-8 text ({exc})") from None
         return cls.from_string(text, p)
 
+    @property
+    def _name(self) -> str:
+        return str(self.path) if self.path is not None else "<string>"
+
     def _err(self, msg: str) -> ScenefileError:
-        name = str(self.path) if self.path is not None else "<string>"
-        return ScenefileError(f"{name}: {msg}")
+        return ScenefileError(f"{self._name}: {msg}")
 
     # -- building ----------------------------------------------------------------------
     def build_sonar(self) -> Sonar:
@@ -116,6 +119,8 @@ class SceneFile:
             return Sonar(**kw)
         except (TypeError, ValueError) as exc:
             raise self._err(f"[sonar] {exc}") from None
+        except MemoryError as exc:
+            raise MemoryError(f"{self._name}: [sonar] {exc}") from None
 
     def build_scene(self, rng: np.random.Generator) -> tuple[Any, Leaves, np.ndarray | None]:
         """``(scene object, leaves, tree positions (t, 2) or None)`` of ``[scene]``; the scene
@@ -184,19 +189,29 @@ class SceneFile:
             if isinstance(exc, ScenefileError):
                 raise
             raise self._err(f"[scene] {exc}") from None
+        except MemoryError as exc:
+            raise MemoryError(f"{self._name}: [scene] {exc}") from None
 
-    def build_flight(self, center_xy: np.ndarray, forest: Any = None) -> FlightPlan:
+    def build_flight(
+        self, center_xy: np.ndarray, forest: Any = None, bytes_per_pulse: float = 0.0
+    ) -> FlightPlan:
         """The pulse poses of ``[flight]``; ``center_xy`` is the scene's centre (m), the
         default centre of circles and figure eights and the default look-at target;
-        ``forest``, the scene's :class:`batecho.Forest` (for ``radius = "clear"``)."""
+        ``forest``, the scene's :class:`batecho.Forest` (for ``radius = "clear"``). The
+        pulses times ``bytes_per_pulse`` (their echoes) must fit the memory limit."""
         try:
             return flight_plan(
-                self.config["flight"], np.asarray(center_xy, dtype=np.float64), forest
+                self.config["flight"],
+                np.asarray(center_xy, dtype=np.float64),
+                forest,
+                bytes_per_pulse,
             )
         except ScenefileError as exc:
             raise self._err(str(exc)) from None
         except (TypeError, ValueError) as exc:
             raise self._err(f"[flight] {exc}") from None
+        except MemoryError as exc:
+            raise MemoryError(f"{self._name}: {exc}") from None
 
 
 def _intensity(spec: Any):

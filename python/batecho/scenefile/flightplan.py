@@ -8,7 +8,9 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import BYTES_PER_POSE, check_memory
 from ..flight.poses import Poses
+from ..flight.vehicle import BYTES_PER_STEP
 from .schema import ScenefileError
 
 __all__ = ["DEFAULT_RADIUS_M", "FlightPlan", "flight_plan"]
@@ -37,9 +39,37 @@ class FlightPlan:
 DEFAULT_RADIUS_M = {"circle": 6.2, "figure_eight": 3.1}
 
 
-def flight_plan(fl: dict[str, Any], center_xy: np.ndarray, forest: Any = None) -> FlightPlan:
+def _check_pulses(fl: dict[str, Any], duration: float, bytes_per_pulse: float) -> None:
+    """Refuse, naming the key, a pulse count whose echoes would not fit the memory limit."""
+    if not np.isfinite(duration):
+        return  # (the path's own checks say what is missing)
+    if "pulse_rate_hz" in fl:
+        key, count = "pulse_rate_hz", fl["pulse_rate_hz"] * duration + 1.0
+    else:
+        key, count = "n_pulses", float(fl["n_pulses"])
+    check_memory(
+        count * max(bytes_per_pulse, BYTES_PER_POSE),
+        f"[flight] {key} = {fl[key]!r}: {count:.4g} pulses over {duration:.4g} s",
+        "use fewer pulses, or split the flight into several scene files",
+    )
+    if fl["mode"] == "flown" and "dt" in fl:
+        steps = duration / fl["dt"]
+        check_memory(
+            steps * BYTES_PER_STEP,
+            f"[flight] dt = {fl['dt']!r}: a flight of {duration:.4g} s in {steps:.3g} steps",
+            "use a larger dt or a shorter duration",
+        )
+
+
+def flight_plan(
+    fl: dict[str, Any],
+    center_xy: np.ndarray,
+    forest: Any = None,
+    bytes_per_pulse: float = 0.0,
+) -> FlightPlan:
     """The poses of the ``[flight]`` table ``fl`` about the scene's centre ``center_xy``;
-    ``forest`` (a :class:`batecho.Forest`) gives ``radius = "clear"`` its radius."""
+    ``forest`` (a :class:`batecho.Forest`) gives ``radius = "clear"`` its radius. The pulses
+    times ``bytes_per_pulse`` (their echoes) must fit the memory limit."""
     from ..flight import kinematic, trajectories
     from ..flight.mount import SonarMount
     from ..flight.vehicle import Quadrotor
@@ -99,6 +129,7 @@ def flight_plan(fl: dict[str, Any], center_xy: np.ndarray, forest: Any = None) -
     else:
         traj = trajectories.Waypoints(fl["points"], fl["speed"], closed=fl["closed"], **head_kw)
     duration = fl.get("duration", traj.duration)
+    _check_pulses(fl, duration, bytes_per_pulse)
     flight = None
     if mode == "flown":
         quad = Quadrotor.crazyflie() if fl["quadrotor"] == "crazyflie" else Quadrotor.research()

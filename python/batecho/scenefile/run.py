@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import echoes_bytes_per_pulse
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.clearance import ClearanceWarning, SolidClearance, low_clearance, solid_clearance
 from ..forest.scene import Scene
@@ -98,12 +99,19 @@ def setup_scenefile(sf: SceneFile) -> SimulationSetup:
     scene = Scene(leaves)
     t2 = time.perf_counter()
     sonar = sf.build_sonar()
+    n = sonar._provisional_n() if sonar.is_auto else int(sonar.n_samples)
+    f_lo, f_hi = sonar.band_hz
+    bins = (float(f_hi) - float(f_lo)) * n / sonar.fs + 1.0
     if pos is not None and len(pos):
         center = np.asarray(pos, dtype=np.float64).mean(axis=0)
     else:
         lo, hi = leaves.bounds()
         center = 0.5 * (lo[:2] + hi[:2])
-    plan = sf.build_flight(center, obj if pos is not None else None)
+    plan = sf.build_flight(
+        center,
+        obj if pos is not None else None,
+        bytes_per_pulse=echoes_bytes_per_pulse(bins, n),
+    )
     t3 = time.perf_counter()
     return SimulationSetup(
         sf,
@@ -219,7 +227,7 @@ def run_scenefile(
         arrays: dict[str, Any] = {
             "spectrum": echoes.spectrum,
             "freqs": echoes.freqs,
-            "band_bins": np.asarray(st.sonar.bins),
+            "band_bins": np.asarray(echoes.sonar.bins),
             "times": echoes.times,
             "n_leaves": echoes.n_leaves,
             "positions": echoes.poses.positions,

@@ -50,6 +50,9 @@ from ..forest.models import TREE_MODELS
 
 __all__ = ["PLOTS", "SCENE_KEYS_BY_KIND", "ScenefileError", "check_document"]
 
+#: The highest resolution of the plots (dots per inch).
+MAX_DPI = 2400
+
 #: The plots a scene file may ask for in ``[output] plots``.
 PLOTS = ("scene", "impulses", "echo_image", "spectrogram", "spectrum")
 
@@ -262,7 +265,7 @@ def _is_num(v: Any) -> bool:
 
 
 def _fail(where: str, key: str, msg: str) -> ScenefileError:
-    return ScenefileError(f"[{where}] {key}: {msg}")
+    return ScenefileError(f"[{where}] {key}: {msg}" if where else f"{key}: {msg}")
 
 
 def _nums(v: Any, n: int | None, where: str, key: str, what: str) -> list[float]:
@@ -465,4 +468,11 @@ def check_document(doc: dict) -> dict[str, Any]:
     for key in ("sample_points", "dpi", "max_scene_points"):
         if cfg["output"][key] < 1:
             raise ScenefileError(f"[output] {key}: must be >= 1, got {cfg['output'][key]}")
+    if cfg["output"]["dpi"] > MAX_DPI:
+        raise ScenefileError(
+            f"[output] dpi: at most {MAX_DPI} (print quality is 300-600), "
+            f"got {cfg['output']['dpi']}"
+        )
+    if not 0 <= cfg["seed"] < 2**128:
+        raise ScenefileError(f"seed: must be an integer in [0, 2^128), got {cfg['seed']}")
     return cfg

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import finite_scalar, positive_scalar
+from .._validate import finite_scalar
 
 
 def iso9613_alpha_db_per_m(
@@ -40,6 +40,11 @@ def iso9613_alpha_db_per_m(
     )
 
 
+#: The pressures :class:`Atmosphere` takes (Pa), as the core's.
+MIN_PRESSURE_PA = 1e3
+MAX_PRESSURE_PA = 2e5
+
+
 @dataclass(frozen=True)
 class Atmosphere:
     """Air for ISO 9613-1 absorption: temperature (deg C), relative humidity (%), pressure (Pa)."""
@@ -55,7 +60,12 @@ class Atmosphere:
         h = finite_scalar(self.relative_humidity, "relative_humidity")
         if not 0.0 <= h <= 100.0:
             raise ValueError(f"relative_humidity must be in [0, 100] %, got {h}")
-        positive_scalar(self.pressure_pa, "pressure_pa")
+        p = finite_scalar(self.pressure_pa, "pressure_pa")
+        if not MIN_PRESSURE_PA <= p <= MAX_PRESSURE_PA:
+            raise ValueError(
+                f"pressure_pa must be in [{MIN_PRESSURE_PA:g}, {MAX_PRESSURE_PA:g}] Pa (ISO "
+                f"9613-1 covers air up to 200 kPa; below 1 kPa is beyond ~50 km), got {p}"
+            )
 
     def alpha_db_per_m(self, freq_hz):
         """Absorption (dB/m, one way) at ``freq_hz``."""
@@ -64,4 +74,4 @@ class Atmosphere:
         )
 
 
-__all__ = ["Atmosphere", "iso9613_alpha_db_per_m"]
+__all__ = ["MAX_PRESSURE_PA", "MIN_PRESSURE_PA", "Atmosphere", "iso9613_alpha_db_per_m"]

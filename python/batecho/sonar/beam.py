@@ -8,14 +8,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import finite_scalar, positive_scalar
+from .._validate import finite_scalar, positive_scalar, real_array
 
 __all__ = [
     "HALF_POWER_AMPLITUDE",
+    "MIN_SIGMA_RAD",
     "Beam",
     "horseshoe_bat_beamwidth_deg",
     "sigma_from_beamwidth_deg",
 ]
+
+#: The narrowest Gaussian width sigma (rad) of a beam, as the core's ``MIN_SIGMA``.
+MIN_SIGMA_RAD = 1e-8
 
 #: The one-way pattern is at -3 dB (amplitude 0.7079) at half the beamwidth.
 HALF_POWER_AMPLITUDE = 0.7079
@@ -57,13 +61,27 @@ class Beam:
             if not 0.0 < bw < 180.0:
                 raise ValueError(f"beamwidth_deg must be in (0, 180), got {bw}")
         else:
-            s = np.atleast_1d(np.asarray(self.sigma_deg, dtype=np.float64))
+            s = np.atleast_1d(real_array(self.sigma_deg, "sigma_deg"))
             if s.shape not in ((1,), (2,)) or not np.all(np.isfinite(s)) or np.any(s <= 0):
                 raise ValueError(
                     f"sigma_deg must be one or two finite values > 0, got {self.sigma_deg}"
                 )
+        narrow = min(self.sigmas_rad)
+        if narrow < MIN_SIGMA_RAD:
+            given = "beamwidth_deg" if self.beamwidth_deg is not None else "sigma_deg"
+            raise ValueError(
+                f"{given} = {getattr(self, given)!r} gives a Gaussian width of {narrow:.3g} rad, "
+                f"below the narrowest beam, {MIN_SIGMA_RAD:g} rad (its exponent overflows)"
+            )
         finite_scalar(self.rotation_deg, "rotation_deg")
-        az0, el0 = (finite_scalar(v, "center_deg") for v in self.center_deg)
+        try:
+            az0, el0 = (finite_scalar(v, "center_deg") for v in self.center_deg)
+        except (TypeError, ValueError) as exc:
+            if "center_deg" in str(exc):
+                raise
+            raise TypeError(
+                f"center_deg must be (az0, el0) in degrees, got {self.center_deg!r}"
+            ) from None
         if abs(az0) > 180 or abs(el0) > 90:
             raise ValueError(
                 f"center_deg must have |az| <= 180 and |el| <= 90, got {self.center_deg}"

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from .._validate import finite_scalar, positive_scalar
+from .._validate import finite_scalar, integer, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
 
@@ -26,6 +26,12 @@ _WINDOWS = ("hann", "rect")
 # Record lengths whose resolved sonars an n_samples="auto" sonar keeps (the records a flight
 # needs vary little: each is a 2-3-5-smooth length).
 _RESOLVED_KEPT = 16
+
+#: The largest |threshold_db| (dB): 10^(T/20) stays far inside float64.
+MAX_ABS_THRESHOLD_DB = 300.0
+
+#: The longest record (samples) a sonar may have, as the core's limit.
+MAX_N_SAMPLES = 2**31
 
 #: Beamwidth used when neither ``beamwidth_deg`` nor ``beam`` is given (Ming's canonical 30 deg).
 DEFAULT_BEAMWIDTH_DEG = 30.0
@@ -110,14 +116,34 @@ class Sonar:
         auto = isinstance(self.n_samples, str)
         if auto and self.n_samples != "auto":
             raise ValueError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
-        if not auto and (
-            isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer))
-        ):
-            raise TypeError(f"n_samples must be an integer or 'auto', got {self.n_samples!r}")
+        if not auto:
+            n = integer(self.n_samples, "n_samples", minimum=2, wrong_type=TypeError)
+            if n > MAX_N_SAMPLES:
+                raise ValueError(
+                    f"n_samples must be at most 2^31 = {MAX_N_SAMPLES}, got {self.n_samples!r}"
+                )
         positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
-        if len(tuple(self.band_hz)) != 2:
+        try:
+            band = tuple(self.band_hz)
+        except TypeError:
+            raise TypeError(f"band_hz must be (f_lo, f_hi) in Hz, got {self.band_hz!r}") from None
+        if len(band) != 2:
             raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
-        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in self.band_hz)
+        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in band)
+        num = {
+            name: positive_scalar(getattr(self, name), name)
+            for name in ("sound_speed", "r0_m", "p0_pa", "p_ref_pa", "gain", "min_range_m")
+        }
+        num["threshold_db"] = finite_scalar(self.threshold_db, "threshold_db")
+        if abs(num["threshold_db"]) > MAX_ABS_THRESHOLD_DB:
+            raise ValueError(
+                f"threshold_db must be in [-{MAX_ABS_THRESHOLD_DB:g}, {MAX_ABS_THRESHOLD_DB:g}] "
+                f"dB, got {self.threshold_db!r}"
+            )
+        num["min_ka"] = positive_scalar(self.min_ka, "min_ka", allow_zero=True)
+        max_range = (
+            None if self.max_range_m is None else positive_scalar(self.max_range_m, "max_range_m")
+        )
         fs = positive_scalar(self.fs, "fs")
         if f_hi > fs / 2:
             raise ValueError(
@@ -139,25 +165,25 @@ class Sonar:
             beam._core_tuple(),
             None if self.receiver is None else self.receiver._core_tuple(),
             self.lobe,
-            float(self.threshold_db),
-            float(self.r0_m),
-            float(self.p0_pa),
-            float(self.p_ref_pa),
+            num["threshold_db"],
+            num["r0_m"],
+            num["p0_pa"],
+            num["p_ref_pa"],
             cone,
-            None if self.max_range_m is None else float(self.max_range_m),
+            max_range,
             fs,
             self._provisional_n() if auto else int(self.n_samples),
             f_lo,
             f_hi,
-            float(self.sound_speed),
+            num["sound_speed"],
             self.leaf_model,
             bool(self.spreading),
-            float(self.gain),
+            num["gain"],
             self.window,
             atm,
-            float(self.min_range_m),
+            num["min_range_m"],
             self.too_close,
-            float(self.min_ka),
+            num["min_ka"],
         )
         object.__setattr__(self, "_core", core)
         object.__setattr__(self, "_resolved", {})
@@ -201,8 +227,17 @@ class Sonar:
 
     def record_length_for(self, range_m: float) -> int:
         """The record (samples, a 2-3-5-smooth even number) that holds echoes out to
-        ``range_m`` plus ``record_tail_s``."""
+        ``range_m`` plus ``record_tail_s``; ValueError when that is longer than
+        :data:`MAX_N_SAMPLES`."""
         need = self.fs * (2.0 * float(range_m) / self.sound_speed + self.record_tail_s)
+        if not need <= MAX_N_SAMPLES:
+            raise ValueError(
+                f"n_samples='auto' needs a record of {need:.3g} samples to hold echoes out to "
+                f"{float(range_m):.4g} m (fs = {self.fs:g} Hz, sound_speed = "
+                f"{self.sound_speed:g} m/s, record_tail_s = {self.record_tail_s:g} s), more than "
+                f"the longest record, 2^31 samples; bound the reach with max_range_m (or a "
+                "higher threshold_db), shorten record_tail_s, or give n_samples"
+            )
         return _fft_size(max(256, math.ceil(need)))
 
     def _provisional_n(self) -> int:
@@ -283,15 +318,22 @@ class Sonar:
 
 
 def _fft_size(n: int) -> int:
-    """The smallest even 2-3-5-smooth integer >= n (fast FFT lengths)."""
-    while True:
-        m = n
-        for p in (2, 3, 5):
-            while m % p == 0:
-                m //= p
-        if m == 1 and n % 2 == 0:
-            return n
-        n += 1
+    """The smallest even 2-3-5-smooth integer >= n (fast FFT lengths): the least
+    ``2^a 3^b 5^c >= n`` with ``a >= 1``, found over the powers of 5 and 3 (a few hundred
+    steps for any n that fits in memory)."""
+    n = max(int(n), 2)
+    best = 2 ** max(1, (n - 1).bit_length())
+    p5 = 1
+    while p5 < 2 * n:
+        p35 = p5
+        while p35 < 2 * n:
+            m = 2 * p35  # a >= 1
+            while m < n:
+                m *= 2
+            best = min(best, m)
+            p35 *= 3
+        p5 *= 5
+    return best
 
 
-__all__ = ["DEFAULT_BEAMWIDTH_DEG", "Sonar"]
+__all__ = ["DEFAULT_BEAMWIDTH_DEG", "MAX_N_SAMPLES", "Sonar"]

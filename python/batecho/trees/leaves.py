@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import norms
-from .._validate import finite, readonly, real_array, vectors
+from .._validate import finite, readonly, real_array, unit_rows, vectors
 
 #: Coordinates beyond this (m) are refused (the BVH stores f32 boxes).
 MAX_COORDINATE_M = 1e15
@@ -27,6 +27,8 @@ class Leaves:
     radii : array_like, shape (n,)
         Disk radii in metres, > 0.
 
+    Notes
+    -----
     The caller's arrays are never modified or kept: ``Leaves`` holds read-only float64 copies.
     """
 
@@ -50,13 +52,10 @@ class Leaves:
             raise ValueError(
                 f"leaf {i} has a centre coordinate beyond {MAX_COORDINATE_M:g} m: {c[i]}"
             )
-        length = norms(nv)
-        if not (length > 0).all() or not np.isfinite(length).all():
-            i = int(np.argmax(~(length > 0) | ~np.isfinite(length)))
-            raise ValueError(
-                f"leaf {i} has a zero-length normal {nv[i]}; a disk needs an orientation"
-            )
-        nv = nv / length[:, None]
+        if (r > MAX_COORDINATE_M).any():
+            i = int(np.argmax(r > MAX_COORDINATE_M))
+            raise ValueError(f"radii must be at most {MAX_COORDINATE_M:g} m; leaf {i} has {r[i]}")
+        nv = unit_rows(nv, "normal", "leaf")
         self._centers = readonly(c)
         self._normals = readonly(np.ascontiguousarray(nv))
         self._radii = readonly(r)

@@ -241,6 +241,8 @@ class LSystem:
         Seeds ``numpy.random.default_rng`` for the stochastic choices. The generator is kept:
         successive :meth:`derive` calls continue its stream; equal seeds give equal strings.
 
+    Notes
+    -----
     Callables may draw their own random numbers (e.g. from the same Generator) for parameter
     jitter. Successor strings returned by callables are validated when produced.
     """

@@ -28,6 +28,10 @@ from .._geometry import crosses, norms
 from .._validate import positive_scalar, readonly, real_array
 from .leaves import Leaves
 
+#: The largest OBJ or MTL file a load reads (bytes), as the core's: 1 GiB. A load also needs
+#: about eight times the file's size in memory, within :func:`batecho.memory_limit`.
+MAX_OBJ_BYTES = 2**30
+
 #: Leaf patterns used when ``leaf_patterns`` is None (the Rust core's defaults).
 DEFAULT_LEAF_PATTERNS: tuple[str, ...] = ("leaf", "leaves", "foliage", "needle")
 
@@ -201,8 +205,12 @@ def load_obj(
     Parameters
     ----------
     path : str or path-like
-        The OBJ file. Only it and the MTL files in its own folder are read; an ``mtllib``
-        that is absolute, contains ``..`` or resolves outside that folder is refused.
+        The OBJ file: a regular file (not a FIFO or a device) of at most
+        :data:`MAX_OBJ_BYTES`. Only it and the MTL files in its own folder are read; an
+        ``mtllib`` that is absolute, contains ``..`` or resolves outside that folder is
+        refused (the check is made on the file as opened, so a link swapped meanwhile
+        cannot lead outside). Object, group and
+        material names may not hold control characters (the error names the file and line).
     leaf_patterns : list of str, optional
         Names (object, group or material) that mark leaf faces; case-insensitive; ``*`` and
         ``?`` make a pattern a glob over the whole name, otherwise it is a substring.
@@ -326,7 +334,10 @@ def write_obj(
     comment : str, optional
         A comment line written at the top.
 
-    Returns the OBJ path.
+    Returns
+    -------
+    pathlib.Path
+        The OBJ path.
     """
     p = _as_path(path, "path")
     if p.suffix.lower() == ".mtl":
@@ -555,4 +566,12 @@ def _pattern_matches(pattern: str, name: str) -> bool:
     return p in s
 
 
-__all__ = ["DEFAULT_LEAF_PATTERNS", "Mesh", "ObjWarning", "leaf_cards", "load_obj", "write_obj"]
+__all__ = [
+    "DEFAULT_LEAF_PATTERNS",
+    "MAX_OBJ_BYTES",
+    "Mesh",
+    "ObjWarning",
+    "leaf_cards",
+    "load_obj",
+    "write_obj",
+]

@@ -10,12 +10,51 @@ mod sonar;
 use batecho::error::Error;
 use batecho::math::vec3::V3;
 use numpy::PyReadonlyArray2;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-/// A core error as Python's `ValueError`, with the same message.
+/// A core error as Python's `ValueError` (`MemoryError` for a request over the memory
+/// limit), with the same message.
 pub(crate) fn to_py(e: Error) -> PyErr {
-    PyValueError::new_err(e.to_string())
+    match e {
+        Error::TooLarge(msg) => PyMemoryError::new_err(msg),
+        other => PyValueError::new_err(other.to_string()),
+    }
+}
+
+/// A Python integer as a `usize`, or a `ValueError`/`TypeError` that names the parameter and
+/// the value (pyo3's own conversion says only "can't convert negative int to unsigned").
+pub(crate) fn unsigned(x: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {
+    if x.is_instance_of::<pyo3::types::PyBool>() || !x.is_instance_of::<pyo3::types::PyInt>() {
+        let index = x.call_method0("__index__").ok();
+        return match index {
+            Some(i) if !x.is_instance_of::<pyo3::types::PyBool>() => unsigned(&i, name),
+            _ => Err(PyTypeError::new_err(format!(
+                "{name} must be an integer, got {}",
+                x.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ))),
+        };
+    }
+    x.extract::<usize>().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{name} must be an integer in [0, {}], got {}",
+            usize::MAX,
+            x.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+        ))
+    })
+}
+
+/// The memory limit (bytes) on what one call may allocate (see `batecho.set_memory_limit`).
+#[pyfunction]
+fn memory_limit() -> u64 {
+    batecho::budget::limit_bytes()
+}
+
+/// Set the memory limit (bytes); returns the previous one.
+#[pyfunction]
+fn set_memory_limit(bytes: &Bound<'_, PyAny>) -> PyResult<u64> {
+    let b = unsigned(bytes, "bytes")?;
+    batecho::budget::set_limit_bytes(b as u64).map_err(to_py)
 }
 
 /// The rows of an `(n, 3)` array; a `ValueError` naming `name` for another shape.
@@ -41,6 +80,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<flight::PyAirframe>()?;
     m.add_class::<flight::PySwarm>()?;
     m.add_function(wrap_pyfunction!(flight::fly, m)?)?;
+    m.add_function(wrap_pyfunction!(memory_limit, m)?)?;
+    m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

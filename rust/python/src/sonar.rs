@@ -11,7 +11,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::sync::Arc;
 
-use crate::to_py;
+use crate::{to_py, unsigned};
 
 fn beam_from(spec: (f64, f64, f64, f64, f64, f64)) -> Result<GaussianBeam, Error> {
     let (amp, sx, sy, rot, az0, el0) = spec;
@@ -45,7 +45,7 @@ impl PySonar {
         cone_half_angle: Option<f64>,
         max_range: Option<f64>,
         fs: f64,
-        n_samples: usize,
+        n_samples: &Bound<'_, PyAny>,
         f_lo: f64,
         f_hi: f64,
         sound_speed: f64,
@@ -109,7 +109,7 @@ impl PySonar {
             lobe,
             max_range,
             fs,
-            n_samples,
+            n_samples: unsigned(n_samples, "n_samples")?,
             f_lo,
             f_hi,
             sound_speed,

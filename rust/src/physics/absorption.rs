@@ -21,6 +21,11 @@ impl Default for Atmosphere {
     }
 }
 
+/// The pressures the absorption formula is used for (Pa): ISO 9613-1 covers air up to 200 kPa;
+/// below 1 kPa (above ~50 km) its relaxation terms are outside any measured range.
+pub const MIN_PRESSURE_PA: f64 = 1e3;
+pub const MAX_PRESSURE_PA: f64 = 2e5;
+
 impl Atmosphere {
     pub fn validate(&self) -> Result<()> {
         let t = self.temperature_c;
@@ -36,8 +41,10 @@ impl Atmosphere {
             ));
         }
         let p = self.pressure_pa;
-        if !(p.is_finite() && p > 0.0) {
-            return invalid(format!("atmosphere pressure must be > 0 Pa, got {p}"));
+        if !(MIN_PRESSURE_PA..=MAX_PRESSURE_PA).contains(&p) {
+            return invalid(format!(
+                "atmosphere pressure must be in [{MIN_PRESSURE_PA}, {MAX_PRESSURE_PA}] Pa, got {p}"
+            ));
         }
         Ok(())
     }

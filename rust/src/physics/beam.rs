@@ -28,6 +28,10 @@ pub struct GaussianBeam {
     pub c: f64,
 }
 
+/// The narrowest Gaussian width (rad) a beam may have: `1 / (2 sigma^2)` stays far from
+/// overflow, and no sonar is within orders of magnitude of it.
+pub const MIN_SIGMA: f64 = 1e-8;
+
 impl GaussianBeam {
     /// A beam from its widths (radians), the rotation `theta` of the ellipse (radians), the
     /// beam centre (radians) and the peak amplitude `A1`.
@@ -46,6 +50,14 @@ impl GaussianBeam {
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return invalid(format!("beam {name} must be finite and > 0, got {v}"));
+            }
+        }
+        for (name, v) in [("sigma_x", sigma_x), ("sigma_y", sigma_y)] {
+            if v < MIN_SIGMA {
+                return invalid(format!(
+                    "beam {name} must be at least {MIN_SIGMA:e} rad (a narrower Gaussian's \
+                     exponent overflows), got {v:e}"
+                ));
             }
         }
         for (name, v) in [("rotation", rotation), ("az0", az0), ("el0", el0)] {

@@ -1,7 +1,8 @@
 //! Leaves as disks (centre, unit normal, radius), validated and stored in the BVH's
 //! depth-first order, with the BVH built once and reused for every pose.
+use crate::budget;
 use crate::error::{invalid, Result};
-use crate::math::vec3::{dot, V3};
+use crate::math::vec3::{dot, MAX_NORM, MIN_NORM, V3};
 use crate::physics::leaf::{PAPER_BP, PAPER_PP};
 use crate::scene::bvh::dfs_order;
 use crate::scene::bvh::point_box;
@@ -110,8 +111,10 @@ pub fn validate_leaves(centers: &[V3], normals: &[V3], radii: &[f64]) -> Result<
         }
     }
     for (i, &a) in radii.iter().enumerate() {
-        if !(a.is_finite() && a > 0.0) {
-            return invalid(format!("leaf {i} radius must be finite and > 0, got {a}"));
+        if !(a > 0.0 && a <= MAX_COORDINATE) {
+            return invalid(format!(
+                "leaf {i} radius must be > 0 and at most {MAX_COORDINATE:e} m, got {a}"
+            ));
         }
     }
     Ok(())
@@ -120,6 +123,11 @@ pub fn validate_leaves(centers: &[V3], normals: &[V3], radii: &[f64]) -> Result<
 impl Scene {
     /// Build a scene. Normals must already be unit vectors (see [`normalized`]).
     pub fn new(centers: Vec<V3>, normals: Vec<V3>, radii: Vec<f64>) -> Result<Scene> {
+        budget::check(
+            centers.len() as f64 * budget::BYTES_PER_LEAF,
+            || format!("a scene of {} leaves", centers.len()),
+            "split the leaves into several scenes",
+        )?;
         validate_leaves(&centers, &normals, &radii)?;
         let start = Instant::now();
         let boxes: Vec<Aabb> = centers
@@ -180,16 +188,20 @@ impl Scene {
     }
 }
 
-/// `n / |n|` for each normal, with `|n| = sqrt(nx^2 + ny^2 + nz^2)`; zero or non-finite normals
-/// are an error.
+/// `n / |n|` for each normal, with `|n| = sqrt(nx^2 + ny^2 + nz^2)`; a normal whose length is
+/// outside [`MIN_NORM`, `MAX_NORM`] (zero, or too short or long to normalise in f64 without
+/// losing precision) is an error.
 pub fn normalized(normals: &[V3]) -> Result<Vec<V3>> {
     normals
         .iter()
         .enumerate()
         .map(|(i, n)| {
             let l = dot(*n, *n).sqrt();
-            if !(l > 0.0 && l.is_finite()) {
-                return invalid(format!("leaf {i} normal {n:?} is zero or not finite"));
+            if !(MIN_NORM..=MAX_NORM).contains(&l) {
+                return invalid(format!(
+                    "leaf {i} normal {n:?} has length {l:e}, outside [{MIN_NORM:e}, {MAX_NORM:e}]: \
+                     too short or long to normalise in f64"
+                ));
             }
             Ok([n[0] / l, n[1] / l, n[2] / l])
         })

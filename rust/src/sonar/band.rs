@@ -1,6 +1,7 @@
 //! A validated sonar ([`Sonar`]): its parameters checked, and the quantities derived from them
 //! once (band bins, frequencies, wavenumbers, window, absorption per bin, detection constant,
 //! range limit).
+use crate::budget;
 use crate::error::{invalid, Result};
 use crate::physics::amplitude::detection_constant;
 use crate::physics::beam::GaussianBeam;
@@ -120,17 +121,29 @@ impl Sonar {
         }
         let (k0, k1) = (k0 as usize, k1 as usize);
         let m = k1 - k0 + 1;
-        let freqs: Vec<f64> = (k0..=k1).map(|k| k as f64 * p.fs / n as f64).collect();
-        let wavenumbers: Vec<f64> = freqs
-            .iter()
-            .map(|&f| 2.0 * PI * f / p.sound_speed)
-            .collect();
-        let window: Vec<f64> = match p.window {
-            Window::Hann => (0..m)
-                .map(|j| 0.5 - 0.5 * (2.0 * PI * j as f64 / m as f64).cos())
-                .collect(),
-            Window::Rect => vec![1.0; m],
-        };
+        budget::check(
+            budget::sonar_bytes(m, n, rayon::current_num_threads()),
+            || {
+                format!(
+                    "a sonar with n_samples = {n}, fs = {} Hz and band_hz = ({}, {}) ({m} band \
+                     bins)",
+                    p.fs, p.f_lo, p.f_hi
+                )
+            },
+            "use a shorter record (n_samples), a lower fs or a narrower band",
+        )?;
+        let table = || budget::with_capacity::<f64>(m, "the sonar's band tables");
+        let mut freqs = table()?;
+        freqs.extend((k0..=k1).map(|k| k as f64 * p.fs / n as f64));
+        let mut wavenumbers = table()?;
+        wavenumbers.extend(freqs.iter().map(|&f| 2.0 * PI * f / p.sound_speed));
+        let mut window = table()?;
+        match p.window {
+            Window::Hann => {
+                window.extend((0..m).map(|j| 0.5 - 0.5 * (2.0 * PI * j as f64 / m as f64).cos()))
+            }
+            Window::Rect => window.resize(m, 1.0),
+        }
 
         let (reach_sq_per_gain, cos_half_angle) = match p.lobe {
             LobeRule::Detectable {

@@ -2,6 +2,7 @@
 //! bark polygons into triangles, with the warnings.
 use crate::error::{Error, Result};
 use crate::math::vec3::{dot, norm, V3};
+use crate::scene::obj::files::read_obj;
 use crate::scene::obj::geometry::polygon_geometry;
 use crate::scene::obj::geometry::transform_positions;
 use crate::scene::obj::geometry::PolygonGeometry;
@@ -28,8 +29,7 @@ use std::path::{Path, PathBuf};
 pub fn load_obj(path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
     opts.validate()?;
     let file = path.display().to_string();
-    let bytes = std::fs::read(path)
-        .map_err(|e| Error::Obj(format!("{file}: cannot read the OBJ file: {e}")))?;
+    let bytes = read_obj(path, &file)?;
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,
         Err(e) => {

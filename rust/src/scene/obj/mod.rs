@@ -14,12 +14,14 @@
 //! (a `g` of an earlier object does not carry over), a material carries over as in OBJ.
 
 pub mod build;
+pub mod files;
 pub mod geometry;
 pub mod names;
 pub mod options;
 pub mod scan;
 
 pub use build::load_obj;
+pub use files::MAX_OBJ_BYTES;
 pub use geometry::{polygon_geometry, PolygonGeometry};
 pub use names::pattern_matches;
 pub use options::{ObjMesh, ObjOptions, Per, Up, DEFAULT_LEAF_PATTERNS, DEGENERATE_REL_AREA};

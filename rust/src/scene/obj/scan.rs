@@ -2,6 +2,7 @@
 //! indices), the MTL files beside it, and the positions from tobj.
 use crate::error::{Error, Result};
 use crate::math::vec3::V3;
+use crate::scene::obj::files::{read_mtl, MtlRefusal};
 use std::cell::RefCell;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
@@ -56,6 +57,27 @@ pub(super) struct Scan {
 fn rest_of<'a>(line: &'a str, key: &str) -> Option<&'a str> {
     let r = line[key.len()..].trim();
     (!r.is_empty()).then_some(r)
+}
+
+/// An `o`, `g` or `usemtl` name, refused when it holds a control character (a name is written
+/// back as an OBJ name and matched against leaf patterns; spaces inside it are kept).
+fn name_of<'a>(line: &'a str, key: &str) -> std::result::Result<Option<&'a str>, String> {
+    let Some(name) = rest_of(line, key) else {
+        return Ok(None);
+    };
+    match name.chars().find(|c| c.is_control()) {
+        Some(c) => Err(format!(
+            "the {} name {:?} holds the control character U+{:04X}; names must be printable",
+            match key {
+                "o" => "object",
+                "g" => "group",
+                _ => "material",
+            },
+            clip(name),
+            c as u32
+        )),
+        None => Ok(Some(name)),
+    }
 }
 
 fn parse_number(tok: &str, line: &str) -> std::result::Result<f64, String> {
@@ -258,16 +280,20 @@ pub(super) fn prescan(text: &str, file: &str, obj_dir: &Path) -> Result<Scan> {
                 });
             }
             "o" => {
-                names.object = rest_of(line, key).map(str::to_string);
+                names.object = name_of(line, key)
+                    .or_else(|m| obj_err(file, ln, m))?
+                    .map(str::to_string);
                 names.group = None;
                 current = None;
             }
             "g" => {
-                names.group = rest_of(line, key).map(str::to_string);
+                names.group = name_of(line, key)
+                    .or_else(|m| obj_err(file, ln, m))?
+                    .map(str::to_string);
                 current = None;
             }
             "usemtl" => {
-                let Some(m) = rest_of(line, key) else {
+                let Some(m) = name_of(line, key).or_else(|m| obj_err(file, ln, m))? else {
                     return obj_err(file, ln, "'usemtl' without a material name");
                 };
                 names.material = Some(m.to_string());
@@ -291,21 +317,27 @@ pub(super) fn prescan(text: &str, file: &str, obj_dir: &Path) -> Result<Scan> {
 /// the names come from the `usemtl` lines anyway.
 fn load_mtl_file(
     full: &Path,
+    dir: &Path,
     name: &str,
     file: &str,
     warnings: &mut Vec<String>,
+    refused: &mut Option<String>,
 ) -> tobj::MTLLoadResult {
     let fail = Err(tobj::LoadError::OpenFileFailed);
-    let bytes = match std::fs::read(full) {
+    let bytes = match read_mtl(full, dir) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+        Err(MtlRefusal::NotFound) => {
             warnings.push(format!(
                 "{file}: material library '{name}' not found in the OBJ's folder; faces are \
                  still classified by their usemtl names"
             ));
             return fail;
         }
-        Err(e) => {
+        Err(MtlRefusal::Outside(why)) => {
+            refused.get_or_insert(format!("{file}: {}", refusal(name, &why)));
+            return fail;
+        }
+        Err(MtlRefusal::Unreadable(e)) => {
             warnings.push(format!(
                 "{file}: cannot read material library '{name}': {e}; faces are still classified \
                  by their usemtl names"
@@ -352,19 +384,22 @@ pub(super) fn positions_via_tobj(
     scan: &Scan,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<V3>> {
-    // tobj splits `usemtl`/`mtllib`/`o`/`g` names at the first space only; feed it tabs as
-    // spaces and lines without leading blanks (names are taken from the pre-scan anyway).
+    // tobj splits lines at spaces only; feed it every other blank (tab, form feed, vertical
+    // tab, CR, NBSP, ...) as a space, and lines without leading blanks, as the pre-scan reads
+    // them (the names are taken from the pre-scan anyway).
+    let odd_blank = |c: char| c.is_whitespace() && c != ' ' && c != '\n';
     let cleaned;
-    let text = if text.contains('\t') || text.lines().any(|l| l.starts_with(char::is_whitespace)) {
-        cleaned = text
-            .lines()
-            .map(|l| l.trim_start().replace('\t', " "))
-            .collect::<Vec<_>>()
-            .join("\n");
-        cleaned.as_str()
-    } else {
-        text
-    };
+    let text =
+        if text.contains(odd_blank) || text.lines().any(|l| l.starts_with(char::is_whitespace)) {
+            cleaned = text
+                .lines()
+                .map(|l| l.trim_start().replace(odd_blank, " "))
+                .collect::<Vec<_>>()
+                .join("\n");
+            cleaned.as_str()
+        } else {
+            text
+        };
     // All false: faces keep their arity (no triangulation), positions keep their own index,
     // and points and lines stay in, so that tobj's faces line up one to one with the pre-scan.
     let options = tobj::LoadOptions::default();
@@ -378,14 +413,27 @@ pub(super) fn positions_via_tobj(
                 .push(format!("{file}: an 'mtllib' line names no file; ignored"));
             return Err(tobj::LoadError::OpenFileFailed);
         }
-        match resolve_mtllib(obj_dir, &name) {
+        let checked = resolve_mtllib(obj_dir, &name).and_then(|full| {
+            let dir = obj_dir
+                .canonicalize()
+                .map_err(|e| format!("the OBJ's folder cannot be resolved: {e}"))?;
+            Ok((full, dir))
+        });
+        match checked {
             Err(why) => {
                 refused
                     .borrow_mut()
                     .get_or_insert(format!("{file}: {}", refusal(&name, &why)));
                 Err(tobj::LoadError::OpenFileFailed)
             }
-            Ok(full) => load_mtl_file(&full, &name, file, &mut mtl_warnings.borrow_mut()),
+            Ok((full, dir)) => load_mtl_file(
+                &full,
+                &dir,
+                &name,
+                file,
+                &mut mtl_warnings.borrow_mut(),
+                &mut refused.borrow_mut(),
+            ),
         }
     };
     let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

@@ -9,7 +9,7 @@ use crate::scene::obj::options::ObjOptions;
 use crate::scene::obj::options::Per;
 use crate::scene::obj::options::Up;
 use std::f64::consts::PI;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use std::fs;
 
@@ -362,4 +362,80 @@ fn options_are_validated() {
         ..Default::default()
     };
     assert!(bad.validate().is_err());
+}
+
+#[test]
+fn a_name_with_a_control_character_is_an_error_naming_file_and_line() {
+    for (key, name) in [("o", "leaf\tx"), ("g", "a\u{0}b"), ("usemtl", "c\rd")] {
+        let text = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\n{key} {name}\nf 1 2 3\n");
+        let s = load("ctrl", &text, &ObjOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            s.contains("line 4") && s.contains("control character"),
+            "{s}"
+        );
+    }
+}
+
+#[test]
+fn any_blank_after_usemtl_separates_the_name() {
+    for blank in ['\u{c}', '\u{b}', '\u{a0}', '\t'] {
+        let text = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl{blank}leaf\nf 1 2 3\n");
+        let m = load("blank", &text, &ObjOptions::default()).unwrap();
+        assert_eq!(m.n_leaves(), 1, "{blank:?}");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn what_is_not_a_regular_file_is_refused_at_once() {
+    let dir = write_files("fifo", &[("x.txt", "")])
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    let fifo = dir.join("pipe.obj");
+    let _ = std::fs::remove_file(&fifo);
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    for path in [fifo.as_path(), Path::new("/dev/zero"), dir.as_path()] {
+        let s = load_obj(path, &ObjOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(s.contains("not a regular file"), "{s}");
+    }
+}
+
+#[test]
+fn a_file_over_the_size_limit_is_refused_before_it_is_read() {
+    let big = write_files("big", &[("big.obj", "")]);
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(crate::scene::obj::MAX_OBJ_BYTES + 1)
+        .unwrap();
+    let s = load_obj(&big, &ObjOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(s.contains("larger than the largest file"), "{s}");
+}
+
+#[cfg(unix)]
+#[test]
+fn an_mtl_linked_from_outside_the_folder_is_refused_as_opened() {
+    let outside = write_files("outside", &[("x.mtl", "newmtl leaf\n")]);
+    let obj = write_files(
+        "linked",
+        &[(
+            "m.obj",
+            "mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )],
+    );
+    let link = obj.parent().unwrap().join("x.mtl");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&outside, &link).unwrap();
+    let s = load_obj(&obj, &ObjOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(s.contains("refusing") && s.contains("outside"), "{s}");
 }

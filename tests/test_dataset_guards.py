@@ -1,0 +1,152 @@
+"""Datasets under faults: one generate per store (a lock), workers that end with a killed
+run, verify that checks the coordinates and names the damaged array and chunk in one line,
+and a resume that re-checks the chunks it would skip."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+zarr = pytest.importorskip("zarr")
+
+from _isolated import run_argv  # noqa: E402
+from test_dataset import tiny_spec  # noqa: E402
+
+from batecho.dataset import DatasetError, generate, verify  # noqa: E402
+from batecho.dataset.guard import StoreLock, StoreLockedError  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory) -> tuple[Path, object]:
+    """A complete tiny store (4 samples in 2 chunks) and its spec."""
+    spec = tiny_spec(n_samples=4, pulses_per_sample=2, **{"output.chunk_size": 2})
+    store = tmp_path_factory.mktemp("made") / "store.zarr"
+    generate(spec, store, workers=1, progress=False)
+    return store, spec
+
+
+def copy_of(made, tmp_path: Path) -> Path:
+    import shutil
+
+    dst = tmp_path / "copy.zarr"
+    shutil.copytree(made[0], dst)
+    return dst
+
+
+def flip_byte(path: Path, at: int = -1) -> None:
+    data = bytearray(path.read_bytes())
+    data[at] ^= 0x10
+    path.write_bytes(bytes(data))
+
+
+def test_a_second_generate_on_a_store_being_written_is_refused_naming_the_holder(tmp_path):
+    store = tmp_path / "s.zarr"
+    with StoreLock(store):
+        with pytest.raises(StoreLockedError, match=rf"being written .*pid {os.getpid()}"):
+            generate(tiny_spec(n_samples=2), store, workers=1, progress=False)
+    assert not store.exists()  # the refused run wrote nothing
+
+
+def test_two_generates_started_together_leave_one_whole_store(tmp_path):
+    spec_path = tmp_path / "spec.toml"
+    spec_path.write_text(tiny_spec(n_samples=8, pulses_per_sample=2).to_toml())
+    store = tmp_path / "s.zarr"
+    argv = [sys.executable, "-m", "batecho", "dataset", "generate", str(spec_path), str(store)]
+    runs = [subprocess.Popen(argv + ["--quiet"], stderr=subprocess.PIPE, text=True)]
+    time.sleep(0.1)
+    runs.append(subprocess.Popen(argv + ["--quiet"], stderr=subprocess.PIPE, text=True))
+    ends = [(r.wait(timeout=300), r.stderr.read()) for r in runs]
+    for rc, err in ends:
+        assert rc == 0 or (rc == 2 and "being written by another" in err), (rc, err)
+    verify(store)
+
+
+def _session_alive(sid: int) -> list[int]:
+    alive = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:
+                continue
+            fields = stat[stat.rindex(")") + 2 :].split()
+            if fields[0] != "Z" and int(fields[3]) == sid:
+                alive.append(int(d.name))
+    return alive
+
+
+def test_the_workers_of_a_killed_run_end_with_it(tmp_path):
+    spec_path = tmp_path / "spec.toml"
+    spec_path.write_text(tiny_spec(n_samples=40, pulses_per_sample=2).to_toml())
+    argv = [sys.executable, "-m", "batecho", "dataset", "generate", str(spec_path),
+            str(tmp_path / "s.zarr"), "--workers", "2", "--quiet"]  # fmt: skip
+    run = subprocess.Popen(argv, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while len(_session_alive(run.pid)) < 3 and time.monotonic() < deadline:
+            time.sleep(0.05)  # until the workers are up
+        assert len(_session_alive(run.pid)) >= 3, "the workers never started"
+        run.send_signal(signal.SIGKILL)  # the run only, not its group
+        run.wait()
+        deadline = time.monotonic() + 15
+        while _session_alive(run.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _session_alive(run.pid) == []
+    finally:
+        for pid in _session_alive(run.pid):
+            os.kill(pid, signal.SIGKILL)
+
+
+@pytest.mark.parametrize("coord", ["freq", "time", "range", "sample", "pulse", "chunk"])
+@pytest.mark.parametrize("damage", ["flip", "truncate", "delete"])
+def test_verify_refuses_a_store_with_a_damaged_coordinate_naming_it(made, tmp_path, coord, damage):
+    store = copy_of(made, tmp_path)
+    chunk = store / coord / "c" / "0"
+    if damage == "flip":
+        flip_byte(chunk, len(chunk.read_bytes()) // 2)
+    elif damage == "truncate":
+        chunk.write_bytes(chunk.read_bytes()[:3])
+    else:
+        chunk.unlink()
+    with pytest.raises(DatasetError, match=rf"coordinate '{coord}'"):
+        verify(store)
+
+
+def test_a_damaged_compressed_chunk_is_named_by_array_and_chunk(made, tmp_path):
+    store = copy_of(made, tmp_path)
+    chunk = store / "impulse" / "c" / "1" / "0" / "0"
+    chunk.write_bytes(b"\x28\xb5\x2f\xfd" + b"\x00" * 40)  # a zstd header, then nonsense
+    with pytest.raises(DatasetError, match=r"chunk 1: array 'impulse' cannot be read"):
+        verify(store)
+
+
+def test_a_truncated_array_metadata_file_gives_one_line_and_no_traceback(made, tmp_path):
+    store = copy_of(made, tmp_path)
+    meta = store / "n_leaves" / "zarr.json"
+    meta.write_bytes(meta.read_bytes()[:100])
+    oc = run_argv([sys.executable, "-m", "batecho", "dataset", "verify", str(store)], 120)
+    assert oc.returncode == 1 and oc.kind == "exit", oc.stderr
+    assert len(oc.stderr.strip().splitlines()) == 1, oc.stderr
+    assert "array 'n_leaves' has unreadable metadata" in oc.stderr
+
+
+def test_a_resume_recomputes_a_chunk_marked_complete_but_damaged(made, tmp_path):
+    store = copy_of(made, tmp_path)
+    before = np.asarray(zarr.open_group(str(made[0]), mode="r")["position"][...])
+    chunk = store / "position" / "c" / "1" / "0" / "0"
+    flip_byte(chunk, len(chunk.read_bytes()) // 2)
+    with pytest.raises(DatasetError):
+        verify(store)
+    with pytest.warns(UserWarning, match="chunk 1 was marked complete but is damaged"):
+        report = generate(made[1], store, workers=1, progress=False)
+    assert report.chunks_computed == 1
+    verify(store)
+    after = np.asarray(zarr.open_group(str(store), mode="r")["position"][...])
+    assert after.tobytes() == before.tobytes()

@@ -1,0 +1,144 @@
+"""The resource guard: requests too large for memory and absurd parameters that size work
+get a clear exception at once, naming the parameter and the size, in a child process with an
+address-space limit (a regression would abort or hang the child, not the test run)."""
+
+from __future__ import annotations
+
+import pytest
+from _isolated import call_in_child
+
+import batecho
+from batecho._resources import DEFAULT_MEMORY_LIMIT_BYTES, check_memory
+
+SETUP = """
+import numpy as np
+import batecho
+from batecho import Leaves, Poses, Sonar, simulate
+LEAF = Leaves([[2.0, 0, 0]], [[1.0, 0, 0]], [0.02])
+POSE = Poses([0.0, 0, 0], [1.0, 0, 0])
+"""
+
+#: A refused call must answer within this (s): the guards check before any work.
+PROMPT_S = 1.0
+
+
+def refused(body: str, error: str, *words: str) -> str:
+    """The call in a child raises ``error`` promptly, with every one of ``words``."""
+    r = call_in_child(body, SETUP)
+    assert r["raised"] == error, r
+    for w in words:
+        assert w in r["message"], (w, r["message"])
+    assert r["elapsed_s"] < PROMPT_S, r
+    return r["message"]
+
+
+def test_an_oversized_record_is_a_memory_error_naming_n_samples_and_the_size():
+    refused(
+        "Sonar(n_samples=1_000_000_000)",
+        "MemoryError",
+        "n_samples = 1000000000",
+        "GiB",
+        "set_memory_limit",
+    )
+
+
+def test_an_oversized_record_at_simulate_is_refused_before_any_work():
+    refused("simulate(LEAF, Sonar(n_samples=100_000_000), POSE)", "MemoryError", "n_samples")
+
+
+def test_many_poses_at_once_are_refused_with_how_to_split_them():
+    refused(
+        "simulate(LEAF, Sonar(), Poses(np.zeros((200_000, 3)), [1.0, 0, 0]))",
+        "MemoryError",
+        "200000 poses",
+        "poses[i:j]",
+    )
+
+
+def test_an_absurd_sound_speed_with_an_automatic_record_is_refused_at_once():
+    refused(
+        "s = Sonar(sound_speed=0.001, n_samples='auto', threshold_db=-100)\n"
+        "simulate(Leaves([[1e7, 0, 0]], [[1.0, 0, 0]], [0.02]), s, POSE)",
+        "ValueError",
+        "sound_speed = 0.001",
+        "max_range_m",
+    )
+
+
+@pytest.mark.parametrize(
+    "kwargs, named",
+    [
+        ("threshold_db=-200", "threshold_db"),
+        ("lobe='cone', cone_half_angle_deg=30, max_range_m=1e300", "max_range_m"),
+        ("record_tail_s=1e6", "record_tail_s = 1e+06"),
+    ],
+)
+def test_an_automatic_record_too_long_to_make_is_refused_naming_its_cause(kwargs, named):
+    refused(f"Sonar(n_samples='auto', {kwargs})", "ValueError", named, "2^31")
+
+
+def test_a_huge_band_at_a_tiny_sound_speed_simulates_or_refuses_without_aborting():
+    r = call_in_child(
+        "simulate(LEAF, Sonar(fs=160e3, band_hz=(1e3, 80e3), lobe='cone',\n"
+        "    cone_half_angle_deg=179.9, sound_speed=1e-3), POSE)",
+        SETUP,
+    )
+    assert r["raised"] in (None, "ValueError", "MemoryError"), r
+
+
+def test_a_plan_for_a_huge_band_at_a_tiny_sound_speed_is_refused_not_aborted():
+    refused(
+        "s = Sonar(fs=160e3, band_hz=(1e3, 80e3), lobe='cone', cone_half_angle_deg=179.9,\n"
+        "          sound_speed=1e-3, n_samples='auto', max_range_m=10)",
+        "ValueError",
+        "n_samples='auto'",
+    )
+
+
+@pytest.mark.parametrize("n", ["-5", "2**64"])
+def test_an_out_of_range_record_length_names_n_samples(n):
+    refused(f"Sonar(n_samples={n})", "ValueError", "n_samples")
+
+
+def test_the_core_names_an_unsigned_parameter_given_a_negative_integer():
+    msg = refused(
+        "batecho._core.Sonar((1.0, .1, .1, 0.0, 0.0, 0.0), None, 'detectable', 20.0, .1, 2.0,\n"
+        "    2e-5, None, None, 4e5, -5, 6e4, 8e4, 340.0, 'paper', True, .2, 'hann', None, .01,\n"
+        "    'raise', .5)",
+        "ValueError",
+        "n_samples",
+    )
+    assert "-5" in msg
+
+
+def test_the_memory_limit_can_be_raised_and_restored():
+    before = batecho.memory_limit()
+    try:
+        assert batecho.set_memory_limit(64 * 2**30) == before
+        assert batecho.memory_limit() == 64 * 2**30
+    finally:
+        batecho.set_memory_limit(None)
+    assert batecho.memory_limit() == DEFAULT_MEMORY_LIMIT_BYTES
+
+
+def test_a_lowered_limit_refuses_what_the_default_allows():
+    batecho.Sonar(n_samples=2_000_000)
+    batecho.set_memory_limit(2**20)
+    try:
+        with pytest.raises(MemoryError, match="n_samples = 2000000"):
+            batecho.Sonar(n_samples=2_000_000)
+    finally:
+        batecho.set_memory_limit(None)
+
+
+@pytest.mark.parametrize("bad", [0, 1000, -1, 2.5, "4GB", True])
+def test_a_memory_limit_below_one_mebibyte_or_not_an_integer_is_refused(bad):
+    with pytest.raises((ValueError, TypeError), match="nbytes"):
+        batecho.set_memory_limit(bad)
+    assert batecho.memory_limit() == DEFAULT_MEMORY_LIMIT_BYTES
+
+
+def test_the_python_check_says_what_and_how_to_split_it():
+    with pytest.raises(MemoryError, match=r"the thing needs about 931\.3 GiB.*in pieces"):
+        check_memory(1e12, "the thing", "do it in pieces")
+    check_memory(1e3, "a small thing", "")
