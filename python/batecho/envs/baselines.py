@@ -43,44 +43,46 @@ def blind(env: Any, turn_gain: float = 2.0) -> Policy:
 
 def echo_reactive(
     env: Any,
-    threshold_db: float = -60.0,
-    near_m: float = 4.0,
-    stop_m: float = 1.0,
+    threshold_db: float = -50.0,
+    near_m: float = 3.0,
+    stop_m: float = 0.8,
     turn_gain: float = 2.0,
-    min_speed: float = 0.15,
+    min_speed: float = 0.1,
 ) -> Policy:
     """A policy that steers by the two ears' echoes (see the module docstring).
 
     ``threshold_db``: an echo level (dB re 1) above which a range bin holds an obstacle;
-    ``near_m``: within this range echoes steer and slow the drone; ``stop_m``: the range at
-    which it is down to ``min_speed`` (a fraction of full speed); ``turn_gain``: how hard it
-    turns toward the goal when the way is clear.
+    ``near_m``: within this range such echoes steer and slow the drone; ``stop_m``: the range
+    at which it is down to ``min_speed`` (a fraction of full speed); ``turn_gain``: how hard it
+    turns toward the goal when nothing is near.
+
+    Each ear's loudness is the sum, over its range bins within ``near_m``, of the echo's
+    amplitude above the threshold weighted by ``near_m / range``; the drone turns and
+    sidesteps away from the louder ear (toward the goal's side when they are equal), the
+    harder the nearer the nearest loud echo.
     """
     e = _unwrapped(env)
     n_bins, reach = int(e.n_range_bins), float(e.reach_m)
     ranges = (np.arange(n_bins) + 0.5) * reach / n_bins
     near = ranges <= near_m
-    floor = float(e.floor_db)
+    weight = np.where(near, near_m / ranges, 0.0)
 
     def policy(obs: dict[str, np.ndarray]) -> np.ndarray:
         db = np.asarray(obs["echoes"], dtype=np.float64)
-        loud = db > threshold_db
-        # how loud each ear's near echoes are, in dB above the threshold, weighted by nearness
-        excess = np.where(loud & near, db - threshold_db, 0.0) * (near_m / ranges)
-        left, right = excess.sum(axis=1)
+        loud = (db > threshold_db) & near
+        amplitude = np.where(loud, 10.0 ** ((db - threshold_db) / 20.0) - 1.0, 0.0)
+        left, right = (amplitude * weight).sum(axis=1)
         hits = np.flatnonzero(loud.any(axis=0))
-        nearest = float(ranges[hits[0]]) if hits.size else np.inf
+        if not hits.size:
+            return np.array([1.0, 0.0, 0.0, _toward_goal(obs, turn_gain)], np.float32)
+        nearest = float(ranges[hits[0]])
         closeness = float(np.clip((near_m - nearest) / (near_m - stop_m), 0.0, 1.0))
+        balance = (left - right) / (left + right) if left + right > 0 else 0.0
+        if abs(balance) < 0.1:  # as loud on both sides: go round on the goal's side
+            balance = -1.0 if float(obs["goal"][0]) >= 0 else 1.0
+        away = -float(np.sign(balance)) * max(abs(balance), 0.3)
+        turn = float(np.clip(away * (0.5 + closeness), -1.0, 1.0))
         speed = 1.0 - (1.0 - min_speed) * closeness
-        if left + right > 0:
-            away = (right - left) / (left + right)  # > 0: the left is louder, go right... no
-            turn = float(np.clip(-np.sign(left - right) * (0.4 + closeness), -1.0, 1.0))
-            if away == 0.0:
-                turn = 1.0 if float(obs["goal"][0]) <= 0 else -1.0
-            side = 0.6 * turn * closeness
-        else:
-            turn, side = _toward_goal(obs, turn_gain), 0.0
-        del floor
-        return np.array([speed, side, 0.0, turn], np.float32)
+        return np.array([speed, 0.5 * turn * closeness, 0.0, turn], np.float32)
 
     return policy

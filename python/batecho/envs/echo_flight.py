@@ -25,7 +25,7 @@ The observation (a Dict, float32):
   signal of the impulse response) in dB re 1 (relative pressure), the largest in each of
   ``n_range_bins`` equal range bins from 0 to the sonar's reach, clipped to
   [``floor_db``, ``ceiling_db``]; row 0 the left ear, row 1 the right;
-- ``velocity`` (3,): the body-frame velocity (forward, left, up), m/s;
+- ``velocity`` (3,): the body-frame velocity (forward, left, up), m/s (clipped to +-20);
 - ``attitude`` (3,): roll, pitch and yaw (rad, ZYX Euler angles of body -> world);
 - ``goal`` (2,): the goal's bearing in the heading frame (rad, positive to the left) and its
   horizontal distance (m).
@@ -60,6 +60,9 @@ __all__ = ["CLEARANCE_HORIZON_M", "EchoFlightEnv", "default_sonar", "echo_levels
 
 #: Clearances (m) in ``info["clearance_m"]`` are exact up to this and clipped to it.
 CLEARANCE_HORIZON_M = 2.0
+
+#: Body velocities in the observation are clipped to +- this (m/s).
+MAX_OBSERVED_SPEED_MPS = 20.0
 
 #: Attempts at drawing a forest whose start and goal keep clear of it before giving up.
 _MAX_DRAWS = 50
@@ -212,18 +215,24 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.render_mode = render_mode
 
         self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
-        inf = np.inf
+        #: The bounds the observation's speeds (m/s) and goal distance (m) are clipped to.
+        self.max_observed_speed_mps = MAX_OBSERVED_SPEED_MPS
+        self.max_goal_distance_m = 2.0 * math.hypot(
+            self.length_m + self.trees_from_m + self.goal_radius_m, self.width_m
+        )
+        vmax, dmax = self.max_observed_speed_mps, self.max_goal_distance_m
         self.observation_space = spaces.Dict(
             {
                 "echoes": spaces.Box(floor_db, ceiling_db, (2, self.n_range_bins), np.float32),
-                "velocity": spaces.Box(-inf, inf, (3,), np.float32),
+                "velocity": spaces.Box(-vmax, vmax, (3,), np.float32),
                 "attitude": spaces.Box(-np.pi, np.pi, (3,), np.float32),
                 "goal": spaces.Box(
-                    np.array([-np.pi, 0.0], np.float32), np.array([np.pi, inf], np.float32)
+                    np.array([-np.pi, 0.0], np.float32), np.array([np.pi, dmax], np.float32)
                 ),
             }
         )
         self.forest: Forest | None = None
+        self._forests: dict[int, Forest] = {}
         self.sim: QuadrotorSim | None = None
         self.goal = np.zeros(3)
         self.path: list[np.ndarray] = []
@@ -237,8 +246,14 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         half = self.width_m / 2.0
         window = (self.trees_from_m, self.length_m - self.trees_from_m, -half, half)
         need = 2.0 * self.drone_radius_m + 0.5
+        ends = np.array([self.start, self.goal])
         for _ in range(_MAX_DRAWS):
             seed = int(self.np_random.integers(2**63))
+            if seed in self._forests:  # the same seed's forest as an earlier episode's
+                forest = self._forests[seed]
+                if forest.n_trees == 0 or float(forest.clearance(ends).min()) >= need:
+                    return forest
+                continue
             density = self.density
             forest = Forest.from_ipp(
                 lambda x, y: np.full(np.shape(x), density),
@@ -248,7 +263,7 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 variants=self.variants,
                 lambda_max=max(density, 1e-12),
             )
-            ends = np.array([self.start, self.goal])
+            self._forests = {seed: forest}  # kept for the next episode of the same seed
             if forest.n_trees == 0 or float(forest.clearance(ends).min()) >= need:
                 return forest
         raise RuntimeError(
@@ -381,12 +396,15 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         st = self.sim.state
         R, p = st.attitudes[0], st.positions[0]
         d = self.goal[:2] - p[:2]
+        vmax = self.max_observed_speed_mps
         bearing = _wrap(math.atan2(float(d[1]), float(d[0])) - _yaw(R))
         return {
             "echoes": self._echo_db.astype(np.float32),
-            "velocity": (R.T @ st.velocities[0]).astype(np.float32),
+            "velocity": np.clip(R.T @ st.velocities[0], -vmax, vmax).astype(np.float32),
             "attitude": _euler_zyx(R).astype(np.float32),
-            "goal": np.array([bearing, math.hypot(*d)], np.float32),
+            "goal": np.array(
+                [bearing, min(math.hypot(*d), self.max_goal_distance_m)], np.float32
+            ),
         }
 
     def _info(
