@@ -92,7 +92,7 @@ def _picture(args: argparse.Namespace, examples: dict) -> None:
     n = len(args.densities)
     fig, axes = plt.subplots(n, 1, figsize=(7.5, 3.6 * n), squeeze=False)
     colours = {"blind": "#7f8c8d", "echo_reactive": "#c0392b"}
-    for ax, density in zip(axes[:, 0], args.densities):
+    for ax, density in zip(axes[:, 0], args.densities, strict=True):
         env = EchoFlightEnv(density=density)
         env.reset(seed=args.first_seed)
         draw_episode(ax, env, path=np.zeros((0, 3)), lobes=False)

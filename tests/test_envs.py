@@ -63,7 +63,7 @@ def test_seeded_episodes_are_reproducible_step_by_step():
                 break
         runs.append(trace)
     assert len(runs[0]) == len(runs[1])
-    for a, b in zip(runs[0][1:], runs[1][1:]):
+    for a, b in zip(runs[0][1:], runs[1][1:], strict=True):
         for key in a[0]:
             assert np.array_equal(a[0][key], b[0][key])
         assert a[1:] == b[1:]
@@ -148,7 +148,7 @@ def test_the_echoes_grow_louder_as_a_tree_comes_near():
     policy = toward(env, trunk)
     obs, loudest = None, []
     for _ in range(2000):
-        obs, _, terminated, truncated, info = env.step(policy(obs))
+        obs, _, terminated, truncated, _info = env.step(policy(obs))
         loudest.append(float(obs["echoes"].max()))
         if terminated or truncated:
             break
@@ -179,7 +179,7 @@ def test_sync_vector_envs_step_together():
     envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", **SMALL)
     obs, _ = envs.reset(seed=0)
     assert obs["echoes"].shape == (2, 2, 32)
-    obs, reward, terminated, truncated, info = envs.step(np.zeros((2, 4), np.float32))
+    obs, reward, _terminated, _truncated, _info = envs.step(np.zeros((2, 4), np.float32))
     assert reward.shape == (2,)
     envs.close()
 

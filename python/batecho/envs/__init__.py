@@ -10,9 +10,7 @@ from __future__ import annotations
 try:
     import gymnasium
 except ImportError as e:  # pragma: no cover - the test extra installs gymnasium
-    raise ImportError(
-        'batecho.envs needs Gymnasium: pip install "batecho[env]"'
-    ) from e
+    raise ImportError('batecho.envs needs Gymnasium: pip install "batecho[env]"') from e
 
 from .echo_flight import EchoFlightEnv
 

@@ -76,7 +76,11 @@ def default_sonar() -> Sonar:
 
 
 def echo_levels_db(
-    envelope: np.ndarray, ranges: np.ndarray, reach_m: float, n_bins: int, floor_db: float,
+    envelope: np.ndarray,
+    ranges: np.ndarray,
+    reach_m: float,
+    n_bins: int,
+    floor_db: float,
     ceiling_db: float,
 ) -> np.ndarray:
     """(p, n_bins) the largest of each row of ``envelope`` (p, n) in each of ``n_bins`` equal
@@ -108,7 +112,7 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     """Fly a quadrotor across a forest by its echoes (module docstring; ``batecho/EchoFlight-v0``).
 
     Lengths in m, speeds in m/s, rates in rad/s, times in s. ``sonar``: a
@@ -118,7 +122,7 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     trees grown per forest (each placed tree one of them, turned and scaled).
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}  # noqa: RUF012 (gymnasium's attribute)
 
     def __init__(
         self,
@@ -196,7 +200,10 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.n_range_bins = int(n_range_bins)
         self.floor_db, self.ceiling_db = float(floor_db), float(ceiling_db)
         self.effort_weight = float(effort_weight)
-        self.collision_penalty, self.success_reward = float(collision_penalty), float(success_reward)
+        self.collision_penalty, self.success_reward = (
+            float(collision_penalty),
+            float(success_reward),
+        )
         self.sonar = default_sonar() if sonar is None else sonar
         if not isinstance(self.sonar, Sonar):
             raise TypeError(f"sonar must be a batecho.Sonar, got {type(self.sonar).__name__}")
@@ -247,6 +254,11 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         window = (self.trees_from_m, self.length_m - self.trees_from_m, -half, half)
         need = 2.0 * self.drone_radius_m + 0.5
         ends = np.array([self.start, self.goal])
+        density = self.density
+
+        def intensity(x: Any, y: Any) -> np.ndarray:
+            return np.full(np.shape(x), density)
+
         for _ in range(_MAX_DRAWS):
             seed = int(self.np_random.integers(2**63))
             if seed in self._forests:  # the same seed's forest as an earlier episode's
@@ -254,9 +266,8 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 if forest.n_trees == 0 or float(forest.clearance(ends).min()) >= need:
                     return forest
                 continue
-            density = self.density
             forest = Forest.from_ipp(
-                lambda x, y: np.full(np.shape(x), density),
+                intensity,
                 window,
                 seed,
                 tree_params=self.tree_params,
@@ -279,9 +290,7 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         super().reset(seed=seed)
         q = self.width_m / 4.0
         self.start = np.array([0.0, float(self.np_random.uniform(-q, q)), self.altitude_m])
-        self.goal = np.array(
-            [self.length_m, float(self.np_random.uniform(-q, q)), self.altitude_m]
-        )
+        self.goal = np.array([self.length_m, float(self.np_random.uniform(-q, q)), self.altitude_m])
         self.forest = self._draw_forest()
         state = self.quadrotor.initial_state(Hover(self.start, yaw_deg=0.0))
         if self.sim is None:
@@ -308,9 +317,7 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         c, s = math.cos(psi), math.sin(psi)
         return np.array([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2]]), float(u[3])
 
-    def step(
-        self, action: Any
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         if self.sim is None or self.forest is None:
             raise RuntimeError("call reset() before step()")
         velocity, yaw_rate = self.command(action)
@@ -402,14 +409,10 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "echoes": self._echo_db.astype(np.float32),
             "velocity": np.clip(R.T @ st.velocities[0], -vmax, vmax).astype(np.float32),
             "attitude": _euler_zyx(R).astype(np.float32),
-            "goal": np.array(
-                [bearing, min(math.hypot(*d), self.max_goal_distance_m)], np.float32
-            ),
+            "goal": np.array([bearing, min(math.hypot(*d), self.max_goal_distance_m)], np.float32),
         }
 
-    def _info(
-        self, clearance: float, collision: bool, out: bool, success: bool
-    ) -> dict[str, Any]:
+    def _info(self, clearance: float, collision: bool, out: bool, success: bool) -> dict[str, Any]:
         assert self.sim is not None
         return {
             "clearance_m": clearance,
@@ -422,7 +425,7 @@ class EchoFlightEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     # -- pictures -----------------------------------------------------------------------------
 
-    def render(self) -> np.ndarray | None:  # type: ignore[override]
+    def render(self) -> np.ndarray | None:
         """An RGB array (h, w, 3) uint8 of the forest from above, the path so far and each
         ear's lobe now (``render_mode="rgb_array"``); None without a render mode."""
         if self.render_mode is None:

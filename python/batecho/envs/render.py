@@ -38,7 +38,9 @@ def draw_episode(ax: Any, env: Any, path: np.ndarray | None = None, lobes: bool 
     if lobes and env.sim is not None:
         poses = env.ear_poses()
         half_width = float(env.sonar.beamwidth_deg or 30.0) / 2.0
-        for pos, fwd, colour in zip(poses.positions, poses.forward, ("#8e44ad", "#e67e22")):
+        for pos, fwd, colour in zip(
+            poses.positions, poses.forward, ("#8e44ad", "#e67e22"), strict=False
+        ):
             theta = math.degrees(math.atan2(fwd[1], fwd[0]))
             ax.add_patch(
                 Wedge(

@@ -19,8 +19,8 @@ from .._validate import finite_scalar, vectors
 
 __all__ = [
     "DEFAULT_MIN_CLEARANCE_M",
-    "ClearanceWarning",
     "BarkGrid",
+    "ClearanceWarning",
     "SolidClearance",
     "bark_clearance",
     "check_margin",
