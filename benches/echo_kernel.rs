@@ -4,17 +4,22 @@
 //! - one whole fast pulse (lobe query and spectrum, tol 1e-6) with 1e5 and 1e6 leaves in the
 //!   lobe: fused (`pulse::fast_pulse`, as `simulate` runs it) against the members list first;
 //! - exact and fast (tol 1e-6) spectra of 1e5 leaves in the lobe, in the lobe query's order;
+//! - a whole pulse (`simulate`) heard by one ear against two ears (and monostatic), exact and
+//!   fast (tol 1e-6), at 1e4 and 1e5 leaves in the lobe; and the part the ears share (the
+//!   lobe query and the pass that makes every ear's terms) alone;
 //! - the clearance (nearest leaf disk) of 1000 points in the 1e6-leaf canopy.
 
-use batecho::echo::{leaf_term, sum_terms, LeafTerm};
+use batecho::echo::{heard_terms, leaf_term, sum_terms, LeafTerm};
 use batecho::fast::pulse::fast_pulse;
 use batecho::fast::FastSonar;
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
-use batecho::lobe::{candidates, members, Search};
+use batecho::lobe::{candidates, candidates_heard, members, place_receivers, Search};
+use batecho::physics::beam::GaussianBeam;
 use batecho::physics::pose::Pose;
 use batecho::scene::Scene;
+use batecho::simulate::{simulate, Method};
 use batecho::sonar::LobeRule;
-use batecho::sonar::{Sonar, SonarParams};
+use batecho::sonar::{Receiver, Sonar, SonarParams};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 
@@ -204,6 +209,72 @@ fn bench_pulse(c: &mut Criterion) {
     g.finish();
 }
 
+/// Ears 2 cm apart, turned 30 degrees outward, each with a 40-degree beam.
+fn ears(n: usize) -> Vec<Receiver> {
+    let ear = |side: f64| Receiver {
+        offset: [0.0, side * 0.01, 0.0],
+        beam: Some(
+            GaussianBeam::circular(40f64.to_radians())
+                .and_then(|b| {
+                    GaussianBeam::new(
+                        1.0,
+                        b.sigma_x,
+                        b.sigma_y,
+                        0.0,
+                        side * 30f64.to_radians(),
+                        0.0,
+                    )
+                })
+                .unwrap(),
+        ),
+    };
+    [ear(1.0), ear(-1.0)][..n].to_vec()
+}
+
+fn bench_ears(c: &mut Criterion) {
+    let pose = Pose::new([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+    let sonar_with = |receivers: Vec<Receiver>| {
+        let mut p = SonarParams::with_beamwidth(30f64.to_radians()).unwrap();
+        p.lobe = LobeRule::Cone {
+            half_angle: 75f64.to_radians(),
+        };
+        p.receivers = receivers;
+        FastSonar::new(Sonar::new(p).unwrap())
+    };
+    let sonars = [
+        ("monostatic", sonar_with(Vec::new())),
+        ("one_ear", sonar_with(ears(1))),
+        ("two_ears", sonar_with(ears(2))),
+    ];
+    for &n in &[10_000usize, 100_000] {
+        let scene = box_scene(n);
+        let mut g = c.benchmark_group(format!("ears_pulse_{n}"));
+        g.sample_size(10);
+        for (name, s) in &sonars[1..] {
+            g.bench_function(BenchmarkId::new("lobe_and_terms", name), |b| {
+                b.iter(|| {
+                    let rxs = place_receivers(s, &pose);
+                    let cands = candidates_heard(&scene, s, &pose, &rxs, Search::Bvh);
+                    black_box(heard_terms(&scene, s, &pose, 0, &rxs, &cands).unwrap())
+                })
+            });
+        }
+        for (method, m) in [
+            ("exact", Method::Exact),
+            ("fast_tol1e-6", Method::Fast { tol: 1e-6 }),
+        ] {
+            for (name, s) in &sonars {
+                let run = || simulate(&scene, s, &[pose], false, Search::Bvh, m).unwrap();
+                assert!(run().n_leaves.iter().all(|&k| k as usize == n));
+                g.bench_function(BenchmarkId::new(method, name), |b| {
+                    b.iter(|| black_box(run()))
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
 /// The clearance of 1000 points in the 1e6-leaf canopy of [`forest`] (BVH walk), beside
 /// the pulse it guards (`bench_lobe`'s lobe query is one part of a pulse).
 fn bench_clearance(c: &mut Criterion) {
@@ -233,6 +304,7 @@ criterion_group!(
     bench_fast,
     bench_lobe,
     bench_pulse,
+    bench_ears,
     bench_clearance
 );
 criterion_main!(benches);

@@ -39,6 +39,13 @@ SCRIPT = textwrap.dedent(
         e = batecho.simulate(big, cone, poses, method="fast", tol=tol)
         out[f"fast-{tol}-spec"] = e.spectrum
         out[f"fast-{tol}-n"] = e.n_leaves
+    # Two ears: one walk and one pass for both, each ear's spectrum by each method.
+    ears = batecho.Sonar.binaural(0.05, 25.0, lobe="cone", cone_half_angle_deg=60.0)
+    for method, tol in (("exact", 1e-12), ("fast", 1e-6), ("auto", 1e-9)):
+        e = batecho.simulate(big, ears, poses[:2], method=method, tol=tol)
+        out[f"ears-{method}-spec"] = e.spectrum
+        out[f"ears-{method}-imp"] = e.impulse
+        out[f"ears-{method}-n"] = e.n_leaves
     points = np.column_stack([rng.uniform(0, 10, 5000), rng.uniform(-3, 3, 5000),
                               rng.uniform(-3, 3, 5000)])
     out["clearance"], out["clearance-index"] = batecho.Scene(big).clearance(
@@ -63,6 +70,7 @@ def test_results_are_bit_identical_with_one_and_two_threads(tmp_path):
         assert one[k].tobytes() == two[k].tobytes(), k
     assert one["paper-False-n"].min() > 256  # several leaf chunks per pose
     assert one["fast-1e-06-n"].min() > 20000  # several fused chunks per pose
+    assert one["ears-fast-n"].shape == (2, 2) and one["ears-fast-n"].min() > 20000
 
 
 def test_repeated_calls_are_bit_identical():

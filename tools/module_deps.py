@@ -3,7 +3,8 @@
 a cycle.
 
 A top-level module is a folder of `rust/src` (`math`, `physics`, ...) or a file beside
-`lib.rs` (`simulate`, `error`). An edge `a -> b` means some file under `a` names `crate::b`
+`lib.rs` (`simulate`, `error`), with the folder of its submodules if it has one
+(`simulate.rs` and `simulate/`). An edge `a -> b` means some file under `a` names `crate::b`
 in code (comments and string literals are ignored; `#[cfg(test)]` code counts too, so tests
 keep to the same order). `lib.rs` itself (the module list and the unit tests' helpers) is
 not a node.
@@ -40,9 +41,10 @@ def top_modules(src: Path) -> dict[str, list[Path]]:
     mods: dict[str, list[Path]] = {}
     for p in sorted(src.iterdir()):
         if p.is_dir():
-            mods[p.name] = sorted(p.rglob("*.rs"))
+            mods.setdefault(p.name, []).extend(sorted(p.rglob("*.rs")))
         elif p.suffix == ".rs" and p.name != "lib.rs":
-            mods[p.stem] = [p]
+            # (a file beside a folder of the same name: the folder holds its submodules)
+            mods.setdefault(p.stem, []).insert(0, p)
     return mods
 
 

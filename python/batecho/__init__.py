@@ -36,6 +36,8 @@ from .forest.ipp import (
 from .forest.scene import Scene
 from .sonar.absorption import Atmosphere
 from .sonar.beam import Beam, horseshoe_bat_beamwidth_deg
+from .sonar.call import Call
+from .sonar.receivers import Receiver
 from .sonar.sonar import Sonar
 from .trees.branching import Branching, trunk_branching
 from .trees.grow import grow_tree
@@ -92,6 +94,7 @@ __all__ = [
     "Beam",
     "BranchLayout",
     "Branching",
+    "Call",
     "ClearanceWarning",
     "Echoes",
     "Flight",
@@ -104,6 +107,7 @@ __all__ = [
     "Poses",
     "Quadrotor",
     "RasterIntensity",
+    "Receiver",
     "ReferenceTree",
     "Scene",
     "SceneFile",

@@ -52,7 +52,10 @@ class Sonar:
         min_range: float,
         too_close: str,
         min_ka: float,
+        receivers: list[tuple[tuple[float, float, float], _BeamTuple | None]] | None = None,
     ) -> None: ...
+    @property
+    def n_receivers(self) -> int: ...
     @property
     def freqs(self) -> _F64: ...
     @property
@@ -84,6 +87,7 @@ def lobe_members(
     up: _F64,
     left: _F64,
     search: str = "bvh",
+    receiver: int | None = None,
 ) -> npt.NDArray[np.int64]: ...
 def farthest_members(
     scene: Scene, sonar: Sonar, positions: _F64, forward: _F64, up: _F64, left: _F64

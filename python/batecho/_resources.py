@@ -31,10 +31,14 @@ ECHO_BYTES_PER_SAMPLE = 16.0
 BYTES_PER_POSE = 128.0
 
 
-def echoes_bytes_per_pulse(n_bins: float, n_samples: float) -> float:
+def echoes_bytes_per_pulse(n_bins: float, n_samples: float, n_receivers: int = 0) -> float:
     """Memory (bytes) one pulse's pose and echoes take: ``n_bins`` band bins, records of
-    ``n_samples``."""
-    return ECHO_BYTES_PER_BIN * n_bins + ECHO_BYTES_PER_SAMPLE * n_samples + BYTES_PER_POSE
+    ``n_samples``, for each of ``n_receivers`` receivers of their own (0: heard at the
+    emitter, one record)."""
+    records = max(1, n_receivers)
+    return (
+        records * (ECHO_BYTES_PER_BIN * n_bins + ECHO_BYTES_PER_SAMPLE * n_samples) + BYTES_PER_POSE
+    )
 
 
 class SlowWarning(UserWarning):

@@ -2,7 +2,9 @@
 
 Plain NumPy and SciPy, a brute-force lobe test (no BVH, no Rust). ``simulate`` and
 ``lobe_members`` have the same signatures and results as ``batecho.simulate`` and
-``batecho.lobe_members``; the property tests hold the Rust core to this module.
+``batecho.lobe_members``, receivers at their own places included (docs/model.md §5a:
+``_heard``, ``_bisector_incidence``, ``_simulate_heard``); the property tests hold the Rust
+core to this module.
 
 One deliberate detail: the lobe test is a threshold, and a leaf on its boundary is decided by
 the last bit of ``atan2`` and ``exp``. The Rust core calls the C library's ``atan2`` and
@@ -84,6 +86,21 @@ def _view(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
     return r, e, ed, G
 
 
+def _reach_sq(sonar: Sonar) -> float:
+    """K = r0^2 p0 / (10^(T/20) p_ref): a leaf counts out to r^2 <= K G."""
+    return (
+        sonar.r0_m
+        * sonar.r0_m
+        * sonar.p0_pa
+        / (10.0 ** (sonar.threshold_db / 20.0) * sonar.p_ref_pa)
+    )
+
+
+def _record_limit(sonar: Sonar) -> float:
+    record = sonar.sound_speed * cast(int, sonar.n_samples) / (2.0 * sonar.fs)
+    return record if sonar.max_range_m is None else min(float(sonar.max_range_m), record)
+
+
 def _counting(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
     """Boolean mask of counting leaves for pose i, with the view quantities."""
     r, e, ed, G = _view(leaves, sonar, poses, i)
@@ -94,32 +111,113 @@ def _counting(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
             f"leaf {j} is {r[j]:.3e} m from pose {i}, closer than min_range_m = "
             f"{sonar.min_range_m} m"
         )
-    record = sonar.sound_speed * cast(int, sonar.n_samples) / (2.0 * sonar.fs)
-    limit = record if sonar.max_range_m is None else min(float(sonar.max_range_m), record)
-    mask = ~too_close & (r <= limit)
+    mask = ~too_close & (r <= _record_limit(sonar))
     if sonar.lobe == "cone":
         mask &= ed >= math.cos(math.radians(cast(float, sonar.cone_half_angle_deg)))
     else:
         # r <= sqrt(r0^2 p0 G / (10^(T/20) p_ref))
-        K = (
-            sonar.r0_m
-            * sonar.r0_m
-            * sonar.p0_pa
-            / (10.0 ** (sonar.threshold_db / 20.0) * sonar.p_ref_pa)
-        )
         with np.errstate(invalid="ignore"):
-            mask &= r <= np.sqrt(K * G)
+            mask &= r <= np.sqrt(_reach_sq(sonar) * G)
     return mask, r, e, G
 
 
+# Section 5a: receivers at their own places -------------------------------------------------
+def _receiver_position(poses: Poses, i: int, offset) -> np.ndarray:
+    """p + (o_f d + o_l l + o_u u), componentwise in that order."""
+    p, d, l_, u = poses.positions[i], poses.forward[i], poses.left[i], poses.up[i]
+    return p + (offset[0] * d + offset[1] * l_ + offset[2] * u)
+
+
+def _seen_from(leaves: Leaves, at: np.ndarray, beam: Beam, poses: Poses, i: int):
+    """Range, unit direction, e . d and one-way gain of every leaf from the point ``at``, with
+    the angles in pose i's frame (the same operations as ``_view``)."""
+    d, u, l_ = poses.forward[i], poses.up[i], poses.left[i]
+    dx = leaves.centers - at
+    r = np.sqrt(dx[:, 0] * dx[:, 0] + dx[:, 1] * dx[:, 1] + dx[:, 2] * dx[:, 2])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = dx / r[:, None]
+    ed = e[:, 0] * d[0] + e[:, 1] * d[1] + e[:, 2] * d[2]
+    el_ = e[:, 0] * l_[0] + e[:, 1] * l_[1] + e[:, 2] * l_[2]
+    eu = e[:, 0] * u[0] + e[:, 1] * u[1] + e[:, 2] * u[2]
+    az = _libm(_atan2, el_, ed)
+    el = _libm(_atan2, eu, np.sqrt(ed * ed + el_ * el_))
+    return r, e, ed, _one_way_gain(beam, az, el)
+
+
+def _heard(leaves: Leaves, sonar: Sonar, poses: Poses, i: int):
+    """For each receiver of pose i: the mask of counting leaves, the emitter's and the
+    receiver's ranges and directions, and the two-way gain ``S_tx S_rx``.
+
+    A leaf counts for a receiver when it is at least ``min_range_m`` from emitter and receiver,
+    its delay range ``(r_tx + r_rx) / 2`` is within the record (and ``max_range_m``), and
+    ``sqrt(r_tx r_rx) <= sqrt(K S_tx S_rx)`` (detectable rule) or it lies in the cone seen
+    from the emitter and from the receiver (cone rule).
+    """
+    tx_beam = cast(Beam, sonar.beam)
+    r_tx, e_tx, ed_tx, s_tx = _seen_from(leaves, poses.positions[i], tx_beam, poses, i)
+    rxs = cast(tuple, sonar.receivers)
+    views = []
+    near = ~(r_tx >= sonar.min_range_m)
+    for rx in rxs:
+        at = _receiver_position(poses, i, rx.offset_m)
+        beam = tx_beam if rx.beam is None else rx.beam
+        views.append(_seen_from(leaves, at, beam, poses, i))
+        near |= ~(views[-1][0] >= sonar.min_range_m)
+    if near.any() and sonar.too_close == "raise":
+        j = int(np.argmax(near))
+        raise ValueError(f"leaf {j} is closer than min_range_m = {sonar.min_range_m} m to pose {i}")
+    out = []
+    for r_rx, e_rx, ed_rx, s_rx in views:
+        G = s_tx * s_rx
+        mask = (r_tx >= sonar.min_range_m) & (r_rx >= sonar.min_range_m)
+        mask &= (r_tx + r_rx) / 2.0 <= _record_limit(sonar)
+        if sonar.lobe == "cone":
+            cos_h = math.cos(math.radians(cast(float, sonar.cone_half_angle_deg)))
+            mask &= (ed_tx >= cos_h) & (ed_rx >= cos_h)
+        else:
+            with np.errstate(invalid="ignore"):
+                mask &= np.sqrt(r_tx * r_rx) <= np.sqrt(_reach_sq(sonar) * G)
+        out.append((mask, r_tx, e_tx, r_rx, e_rx, G))
+    return out
+
+
+#: Below this ``|e_tx + e_rx| = 2 cos(gamma / 2)`` (a bistatic angle within about 1e-4 rad of
+#: 180 degrees) a leaf is forward scattering, at grazing incidence (docs/model.md §5a).
+FORWARD_SCATTER_B = 1e-4
+
+
+def _bisector_incidence(e_tx: np.ndarray, e_rx: np.ndarray, n: np.ndarray):
+    """The incidence from the bisector b = (e_tx + e_rx) / |e_tx + e_rx| of the two directions:
+    an approximation for small bistatic angles, exact at zero. |b| below
+    ``FORWARD_SCATTER_B`` (a leaf on or next to the segment between emitter and receiver:
+    forward scattering, no specular direction, b decided by rounding) is grazing incidence
+    (beta = pi/2, cos = 0, sin = 1)."""
+    b = e_tx + e_rx
+    nb = np.sqrt(b[:, 0] * b[:, 0] + b[:, 1] * b[:, 1] + b[:, 2] * b[:, 2])
+    zero = ~(nb >= FORWARD_SCATTER_B)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        beta, cos_b, sin_b = _incidence(b / nb[:, None], n)
+    beta = np.where(zero, np.pi / 2, beta)
+    return beta, np.where(zero, 0.0, cos_b), np.where(zero, 1.0, sin_b)
+
+
 def lobe_members(
-    scene: Any, sonar: Sonar, pose: Poses, *, search: str = "brute_force"
+    scene: Any,
+    sonar: Sonar,
+    pose: Poses,
+    *,
+    search: str = "brute_force",
+    receiver: int | None = None,
 ) -> np.ndarray:
-    """Indices (ascending) of the leaves that count for one pose, by testing every leaf."""
+    """Indices (ascending) of the leaves that count for one pose (for receiver ``receiver`` of
+    a sonar with receivers of its own), by testing every leaf."""
     leaves = as_leaves(scene)
     if len(pose) != 1:
         raise ValueError(f"lobe_members takes one pose; got {len(pose)}")
-    mask = _counting(leaves, sonar, pose, 0)[0]
+    if sonar.receivers is not None:
+        mask = _heard(leaves, sonar, pose, 0)[cast(int, receiver)][0]
+    else:
+        mask = _counting(leaves, sonar, pose, 0)[0]
     return np.flatnonzero(mask).astype(np.int64)
 
 
@@ -159,8 +257,11 @@ def _leaf_physical_optics(c: np.ndarray, beta: np.ndarray, cos_b: np.ndarray, si
     return L, np.full_like(L, -np.pi / 2)
 
 
-def _spectrum(sonar: Sonar, r, G, incidence, a, f, w, chunk: int = 2048) -> np.ndarray:
-    """Y_k = w_k sum_i A_ki exp(j phi_ki) over the band bins."""
+def _spectrum(sonar: Sonar, r, G, incidence, a, f, w, spread=None, chunk: int = 2048) -> np.ndarray:
+    """Y_k = w_k sum_i A_ki exp(j phi_ki) over the band bins. ``r`` is the (delay) range, whose
+    round trip ``2 r`` gives the phase and the absorption; ``spread`` is the spreading divisor
+    (``r^2``, or ``r_tx r_rx`` for a receiver of its own)."""
+    spread = r * r if spread is None else spread
     v = sonar.sound_speed
     k = 2.0 * np.pi * f / v
     model = _leaf_paper if sonar.leaf_model == "paper" else _leaf_physical_optics
@@ -171,12 +272,14 @@ def _spectrum(sonar: Sonar, r, G, incidence, a, f, w, chunk: int = 2048) -> np.n
     beta, cos_b, sin_b = incidence
     Y = np.zeros(f.shape, dtype=np.complex128)
     for s in range(0, len(r), chunk):
-        ri, Gi, bi, ci, si, ai = (x[s : s + chunk, None] for x in (r, G, beta, cos_b, sin_b, a))
+        ri, Gi, bi, ci, si, ai, qi = (
+            x[s : s + chunk, None] for x in (r, G, beta, cos_b, sin_b, a, spread)
+        )
         c = k * ai
         L, psi = model(c, bi, ci, si)
         A = sonar.gain * Gi * L / k
         if sonar.spreading:
-            A = A / ri**2
+            A = A / qi
         if alpha is not None:
             A = A * 10.0 ** (-alpha * 2.0 * ri / 20.0)
         # phi = -2 k r - psi, with 2 k r reduced through the fractional part of f 2r / v
@@ -209,8 +312,12 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
         provisional = sonar.resolve(sonar._provisional_n())
         far = 0.0
         for i in range(len(poses)):
-            mask, r, _, _ = _counting(leaves, provisional, poses, i)
-            far = max(far, float(r[mask].max(initial=0.0)))
+            if sonar.receivers is not None:
+                for mask, r_tx, _, r_rx, _, _ in _heard(leaves, provisional, poses, i):
+                    far = max(far, float(((r_tx + r_rx) / 2.0)[mask].max(initial=0.0)))
+            else:
+                mask, r, _, _ = _counting(leaves, provisional, poses, i)
+                far = max(far, float(r[mask].max(initial=0.0)))
         sonar = sonar.resolve(sonar.record_length_for(far))
     k0, k1, f, w = _grid(sonar)
     a_all = leaves.radii
@@ -219,6 +326,8 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
         if ka.min() < sonar.min_ka:
             raise ValueError(f"leaf {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
     n = cast(int, sonar.n_samples)
+    if sonar.receivers is not None:
+        return _simulate_heard(leaves, sonar, poses, k0, k1, f, w)
     spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
     impulses = np.zeros((len(poses), n))
     counts = np.zeros(len(poses), dtype=np.int64)
@@ -232,6 +341,40 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
         full = np.zeros(n // 2 + 1, dtype=np.complex128)
         full[k0 : k1 + 1] = spectra[i]
         impulses[i] = 2.0 * np.fft.irfft(full, n)
+    return Echoes(
+        spectrum=spectra,
+        freqs=f,
+        impulse=impulses,
+        times=np.arange(n) / sonar.fs,
+        n_leaves=counts,
+        sonar=sonar,
+        poses=poses,
+    )
+
+
+def _simulate_heard(leaves: Leaves, sonar: Sonar, poses: Poses, k0, k1, f, w) -> Echoes:
+    """Every receiver's echoes (docs/model.md §5a): the amplitude ``g S_tx S_rx L / (k r_tx
+    r_rx)``, the phase ``-k (r_tx + r_rx) - psi``, absorption over ``r_tx + r_rx``, the
+    incidence from the bisector."""
+    n = cast(int, sonar.n_samples)
+    n_rx = len(cast(tuple, sonar.receivers))
+    spectra = np.zeros((len(poses), n_rx, len(f)), dtype=np.complex128)
+    impulses = np.zeros((len(poses), n_rx, n))
+    counts = np.zeros((len(poses), n_rx), dtype=np.int64)
+    for i in range(len(poses)):
+        for j, (mask, r_tx, e_tx, r_rx, e_rx, G) in enumerate(_heard(leaves, sonar, poses, i)):
+            idx = np.flatnonzero(mask)
+            counts[i, j] = idx.size
+            if idx.size:
+                beta = _bisector_incidence(e_tx[idx], e_rx[idx], leaves.normals[idx])
+                r = (r_tx[idx] + r_rx[idx]) / 2.0
+                spread = r_tx[idx] * r_rx[idx]
+                spectra[i, j] = _spectrum(
+                    sonar, r, G[idx], beta, leaves.radii[idx], f, w, spread=spread
+                )
+            full = np.zeros(n // 2 + 1, dtype=np.complex128)
+            full[k0 : k1 + 1] = spectra[i, j]
+            impulses[i, j] = 2.0 * np.fft.irfft(full, n)
     return Echoes(
         spectrum=spectra,
         freqs=f,

@@ -16,6 +16,14 @@ pub enum Error {
         range: f64,
         min_range: f64,
     },
+    /// A leaf is closer to a receiver of its own (docs/model.md §5a) than `min_range`.
+    TooCloseToReceiver {
+        pose: usize,
+        receiver: usize,
+        leaf: usize,
+        range: f64,
+        min_range: f64,
+    },
     /// An OBJ/MTL file could not be read or understood.
     Obj(String),
     /// A request larger than the memory limit (`budget`), or one the allocator refused; the
@@ -32,6 +40,12 @@ impl fmt::Display for Error {
                 "leaf {leaf} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \
                  the far-field echo model does not hold there (move the pose, lower min_range_m, \
                  or pass too_close=\"skip\" to leave such leaves out)"
+            ),
+            Error::TooCloseToReceiver { pose, receiver, leaf, range, min_range } => write!(
+                f,
+                "leaf {leaf} is {range:.3e} m from receiver {receiver} of pose {pose}, closer than \
+                 min_range_m = {min_range} m; the far-field echo model does not hold there (move \
+                 the receiver or the pose, lower min_range_m, or pass too_close=\"skip\")"
             ),
         }
     }

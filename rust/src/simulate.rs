@@ -1,5 +1,7 @@
 //! Echoes for many poses: the lobe query, the band spectrum and the impulse response of each
-//! pose, poses in parallel.
+//! pose, poses in parallel. Receivers at their own places take [`receivers`]' path.
+
+pub mod receivers;
 
 use crate::budget;
 use crate::echo::impulse::impulse_from_band;
@@ -15,9 +17,11 @@ use crate::sonar::Sonar;
 use rayon::prelude::*;
 
 /// Echoes of `p` poses: spectra `(p, M)` as separate real and imaginary parts, impulses
-/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose.
+/// `(p, n)` (empty when not asked for), and the number of counting leaves per pose. With `R`
+/// receivers of their own (`n_receivers = R > 0`), `(p, R, M)`, `(p, R, n)` and `(p, R)`.
 pub struct Echoes {
     pub n_bins: usize,
+    pub n_receivers: usize,
     pub spectrum_re: Vec<f64>,
     pub spectrum_im: Vec<f64>,
     pub impulse: Vec<f64>,
@@ -43,7 +47,13 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
 
 /// A pose's echoes must be finite: amplitudes beyond f64's range (an enormous gain, beam
 /// amplitude or leaf) are refused, never returned as inf or NaN.
-fn check_finite(pose: usize, re: &[f64], im: &[f64], y: &[f64], sonar: &Sonar) -> Result<()> {
+pub(crate) fn check_finite(
+    pose: usize,
+    re: &[f64],
+    im: &[f64],
+    y: &[f64],
+    sonar: &Sonar,
+) -> Result<()> {
     // (no early exit: the fold vectorises, and a pose's arrays are short)
     let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
     if finite(re) && finite(im) && finite(y) {
@@ -72,6 +82,9 @@ pub fn farthest_members(
     if rayon::current_thread_index().is_none() {
         // (on a pool thread, as `simulate`)
         return rayon::scope(|_| farthest_members(scene, sonar, poses, search));
+    }
+    if !sonar.params.receivers.is_empty() {
+        return receivers::farthest_heard(scene, sonar, poses, search);
     }
     poses
         .par_iter()
@@ -129,11 +142,19 @@ pub fn simulate(
     check_leaf_sizes(scene, sonar)?;
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
+    // Each receiver has a pose's arrays of its own: the output is that many records per pose.
+    let records = poses
+        .len()
+        .saturating_mul(sonar.params.receivers.len().max(1));
     budget::check(
-        budget::echoes_bytes(poses.len(), m, n, with_impulse),
+        budget::echoes_bytes(records, m, n, with_impulse),
         || {
+            let ears = match sonar.params.receivers.len() {
+                0 => String::new(),
+                r => format!(" for {r} receivers"),
+            };
             format!(
-                "simulate of {} poses with n_samples = {n} ({m} band bins{})",
+                "simulate of {} poses{ears} with n_samples = {n} ({m} band bins{})",
                 poses.len(),
                 if with_impulse {
                     ", impulses included"
@@ -158,6 +179,9 @@ pub fn simulate(
             }
         }
     };
+    if !sonar.params.receivers.is_empty() {
+        return receivers::simulate_heard(scene, sonar, poses, with_impulse, search, method, plan);
+    }
     // Per pose: spectrum (re, im), impulse, number of counting leaves.
     type PoseOut = (Vec<f64>, Vec<f64>, Vec<f64>, u64);
     let per_pose: Vec<PoseOut> = poses
@@ -198,6 +222,7 @@ pub fn simulate(
     let p = poses.len();
     let mut out = Echoes {
         n_bins: m,
+        n_receivers: 0,
         spectrum_re: budget::with_capacity(p.saturating_mul(m), what)?,
         spectrum_im: budget::with_capacity(p.saturating_mul(m), what)?,
         impulse: budget::with_capacity(if with_impulse { p.saturating_mul(n) } else { 0 }, what)?,

@@ -168,15 +168,24 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         "echoes.npz and the plots of its [output] table. Tables: [scene] (kind = leaf_box, "
         "obj, tree or forest), [sonar] (any batecho.Sonar parameter), [flight] (path = "
         "circle, line, figure_eight or waypoints; mode = kinematic or flown; n_pulses or "
-        "pulse_rate_hz; [flight.mount]) and [output]. See examples/flight.toml.",
+        "pulse_rate_hz; [flight.mount]), [call] and [output]. See examples/flight.toml and, "
+        "for two ears and a call, examples/two_ears.toml.",
         epilog="examples:\n  batecho simulate examples/flight.toml --out flight-out\n"
-        "  batecho simulate my-scene.toml --seed 3 --no-plots",
+        "  batecho simulate my-scene.toml --seed 3 --no-plots\n"
+        "  batecho simulate examples/two_ears.toml --wav --mat",
         formatter_class=fmt,
     )
     s.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     s.add_argument("--out", help="output folder (default: ./SCENE-out, named after the file)")
     s.add_argument("--seed", type=_seed, help="override the file's seed")
     s.add_argument("--no-plots", action="store_true", help="write the NPZ only")
+    s.add_argument("--wav", action="store_true", help="also write echoes.wav ([output] wav = true)")
+    s.add_argument("--mat", action="store_true", help="also write echoes.mat ([output] mat = true)")
+    s.add_argument(
+        "--xarray",
+        action="store_true",
+        help="also write echoes.zarr, the xarray Dataset ([output] xarray = true)",
+    )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     s.set_defaults(func=run_simulate)
 

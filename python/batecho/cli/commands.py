@@ -192,7 +192,7 @@ def _summary(res) -> None:
     import numpy as np
 
     st, e = res.setup, res.echoes
-    n = e.n_leaves
+    n = e.n_leaves if not e.n_receivers else e.n_leaves.max(axis=1)
     t = res.timings_s
     kind = st.scenefile.config["scene"]["kind"]
     nt = 0 if st.tree_positions is None else len(st.tree_positions)
@@ -203,7 +203,9 @@ def _summary(res) -> None:
         f"+ BVH {t['bvh_s'] * 1e3:.1f} ms"
     )
     print(
-        f"flight{flown}: {len(e)} pulses, leaves in the lobe per pulse {n.min()}..{n.max()} "
+        f"flight{flown}: {len(e)} pulses"
+        + (f", {e.n_receivers} receivers" if e.n_receivers else "")
+        + f", leaves in the lobe per pulse {n.min()}..{n.max()} "
         f"(mean {n.mean():.0f}), {int((n == 0).sum())} silent; simulated in "
         f"{t['simulate_s']:.3f} s"
     )
@@ -234,6 +236,9 @@ def run_simulate(args: argparse.Namespace) -> int:
     sf = SceneFile.from_path(args.scene)
     if args.seed is not None:
         sf.config["seed"] = args.seed
+    for key in ("wav", "mat", "xarray"):
+        if getattr(args, key, False):
+            sf.config["output"][key] = True
     out = Path(args.out) if args.out else Path(f"{Path(args.scene).stem}-out")
     t0 = time.perf_counter()
     res = run_scenefile(sf, out, plots=not args.no_plots, progress=say)

@@ -112,6 +112,8 @@ class Sample:
     poses: Poses
     echoes: Echoes
     labels: dict[str, Any]
+    #: With a [call]: what the receivers record (the impulses convolved, plus the noise).
+    received: np.ndarray | None = None
 
 
 def draw_poses(
@@ -168,16 +170,22 @@ def draw_poses(
 
 
 def _lobe_labels(built: BuiltScene, sonar: Sonar, poses: Poses) -> dict[str, np.ndarray]:
+    """Per pulse (and receiver, with ears): the range from the emitter to the nearest counting
+    leaf and the counting leaves' mean radius (NaN where none counts)."""
     leaves = built.scene.leaves
-    p = len(poses)
-    nearest = np.full(p, np.nan)
-    mean_radius = np.full(p, np.nan)
+    p, r = len(poses), sonar.n_receivers
+    ears: list[int | None] = list(range(r)) if r else [None]
+    nearest = np.full((p, len(ears)), np.nan)
+    mean_radius = np.full((p, len(ears)), np.nan)
     for k in range(p):
-        idx = lobe_members(built.scene, sonar, poses[k])
-        if idx.size:
-            d = np.linalg.norm(leaves.centers[idx] - poses.positions[k], axis=1)
-            nearest[k] = d.min()
-            mean_radius[k] = leaves.radii[idx].mean()
+        for j, ear in enumerate(ears):
+            idx = lobe_members(built.scene, sonar, poses[k], receiver=ear)
+            if idx.size:
+                d = np.linalg.norm(leaves.centers[idx] - poses.positions[k], axis=1)
+                nearest[k, j] = d.min()
+                mean_radius[k, j] = leaves.radii[idx].mean()
+    if not r:
+        nearest, mean_radius = nearest[:, 0], mean_radius[:, 0]
     return {"nearest_range_m": nearest, "lobe_mean_radius_m": mean_radius}
 
 
@@ -195,6 +203,10 @@ def draw_sample(spec: DatasetSpec, i: int, scenes: SceneCache | None = None) -> 
     sonar = spec.sonar.make(beamwidth)
     poses, pose_labels = draw_poses(spec, built, rng)
     echoes = simulate(built.scene, sonar, poses)
+    received = None
+    if spec.call is not None:
+        # (the noise drawn after everything else the sample draws)
+        received = echoes.received(spec.call.make(sonar.fs), spec.call.noise_rms, rng)
     labels: dict[str, Any] = {
         "scene_index": j,
         "beamwidth_deg": beamwidth,
@@ -203,7 +215,7 @@ def draw_sample(spec: DatasetSpec, i: int, scenes: SceneCache | None = None) -> 
         "n_leaves": echoes.n_leaves,
         **_lobe_labels(built, sonar, poses),
     }
-    return Sample(i, j, built, sonar, poses, echoes, labels)
+    return Sample(i, j, built, sonar, poses, echoes, labels, received)
 
 
 def sample_arrays(spec: DatasetSpec, s: Sample) -> dict[str, np.ndarray]:
@@ -212,7 +224,10 @@ def sample_arrays(spec: DatasetSpec, s: Sample) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for v in schema(spec):
         if v.name == "impulse":
-            a = s.echoes.impulse[:, t0:t1]
+            a = s.echoes.impulse[..., t0:t1]
+        elif v.name == "received":
+            assert s.received is not None
+            a = s.received[..., t0:t1]
         elif v.name == "spectrum":
             a = s.echoes.spectrum
         elif v.name in ("position", "forward", "up"):

@@ -32,6 +32,7 @@ from ..echoes.canonical import CANONICAL_BOX
 from ..forest.ipp import PAPER_WINDOW
 
 __all__ = [
+    "CallSpec",
     "DatasetSpec",
     "Dist",
     "ForestSpec",
@@ -257,6 +258,8 @@ def _coerce(value: Any, name: str, meta: Mapping[str, Any]) -> Any:
                 item = Dist.parse(item, f"{name}.{k}")
             out_params[str(k)] = item
         return out_params
+    if kind == "opt_section":
+        return None if value is None else _coerce(value, name, {**meta, "kind": "section"})
     if kind == "section":
         cls = meta["cls"]
         if isinstance(value, cls):
@@ -455,8 +458,19 @@ class SonarSpec(_Section):
     min_range_m: float = _f(0.01, "float", lo=0.0, lo_open=True)
     too_close: str = _f("skip", "str", choices=("skip", "raise"))
     crop_range_m: tuple[float, float] | None = _f(None, "opt_floats", n=2, lo=0.0)
+    #: Two ears (``batecho.Sonar.binaural``): their separation, their outward yaw and their
+    #: pitch; without ``ear_separation_m`` the echo is heard at the emitter.
+    ear_separation_m: float | None = _f(None, "opt_float", lo=0.0)
+    ear_yaw_deg: float | None = _f(None, "opt_float", lo=-180.0, hi=180.0)
+    ear_pitch_deg: float | None = _f(None, "opt_float", lo=-90.0, hi=90.0)
 
     def _check(self) -> None:
+        if self.ear_separation_m is None and (
+            self.ear_yaw_deg is not None or self.ear_pitch_deg is not None
+        ):
+            raise SpecError("sonar.ear_yaw_deg, ear_pitch_deg: only with sonar.ear_separation_m")
+        if self.ear_separation_m is not None and self.ear_yaw_deg is None:
+            raise SpecError("sonar.ear_separation_m needs sonar.ear_yaw_deg (the ears' turn)")
         f_lo, f_hi = self.band_hz
         if not f_lo < f_hi:
             raise SpecError(f"sonar.band_hz must be [f_lo, f_hi] with f_lo < f_hi, got {f_lo}")
@@ -479,7 +493,15 @@ class SonarSpec(_Section):
         """A ``batecho.Sonar`` with this grid and ``beamwidth_deg``."""
         from ..sonar.sonar import Sonar
 
-        return Sonar(
+        make: Any = Sonar
+        if self.ear_separation_m is not None:
+            sep, yaw = self.ear_separation_m, float(self.ear_yaw_deg or 0.0)
+            pitch = float(self.ear_pitch_deg or 0.0)
+
+            def make(**kw: Any) -> Sonar:
+                return Sonar.binaural(sep, yaw, pitch, **kw)
+
+        return make(
             beamwidth_deg=beamwidth_deg,
             fs=self.fs,
             n_samples=self.n_samples,
@@ -513,10 +535,57 @@ class SonarSpec(_Section):
         return self.make(self.beamwidth_deg.low).n_bins
 
     @property
+    def n_receivers(self) -> int:
+        """The length of the ``receiver`` dimension: 2 with ears, else 0 (no such dim)."""
+        return 0 if self.ear_separation_m is None else 2
+
+    @property
     def min_leaf_radius_m(self) -> float:
         """The smallest leaf radius the leaf models accept (``k a >= 0.5`` at the band's
         lowest frequency), m."""
         return 0.5 * self.sound_speed / (2.0 * math.pi * self.band_hz[0])
+
+
+_CALL_KEYS = {
+    "linear_fm": ("f_start_hz", "f_end_hz"),
+    "hyperbolic_fm": ("f_start_hz", "f_end_hz"),
+    "cf_fm": ("f_cf_hz", "fm_end_hz", "fm_duration_s"),
+}
+
+
+@dataclass(frozen=True)
+class CallSpec(_Section):
+    """The emitted call (``batecho.Call``): ``kind`` and its parameters, and white noise of
+    rms ``noise_rms``. With a call, the store holds ``received``: the impulse responses
+    convolved with the call plus the noise (drawn from the sample's generator)."""
+
+    _path: ClassVar[str] = "call"
+    kind: str = _f("linear_fm", "str", choices=tuple(_CALL_KEYS))
+    duration_s: float = _f(2e-3, "float", lo=0.0, lo_open=True)
+    f_start_hz: float | None = _f(None, "opt_float", lo=0.0, lo_open=True)
+    f_end_hz: float | None = _f(None, "opt_float", lo=0.0, lo_open=True)
+    f_cf_hz: float | None = _f(None, "opt_float", lo=0.0, lo_open=True)
+    fm_end_hz: float | None = _f(None, "opt_float", lo=0.0, lo_open=True)
+    fm_duration_s: float | None = _f(None, "opt_float", lo=0.0)
+    window: str = _f("hann", "str", choices=("hann", "hamming", "blackman", "tukey", "rect"))
+    noise_rms: float = _f(0.0, "float", lo=0.0)
+
+    def _check(self) -> None:
+        need = _CALL_KEYS[self.kind]
+        for key in ("f_start_hz", "f_end_hz", "f_cf_hz", "fm_end_hz", "fm_duration_s"):
+            given = getattr(self, key) is not None
+            if given != (key in need):
+                raise SpecError(
+                    f"call.{key}: {'needed' if not given else 'not used'} with "
+                    f"kind = {self.kind!r} (it takes {', '.join(need)})"
+                )
+
+    def make(self, fs: float):
+        """The ``batecho.Call`` at the sample rate ``fs``."""
+        from ..sonar.call import Call
+
+        kw = {k: getattr(self, k) for k in _CALL_KEYS[self.kind]}
+        return getattr(Call, self.kind)(duration_s=self.duration_s, fs=fs, window=self.window, **kw)
 
 
 @dataclass(frozen=True)
@@ -600,6 +669,7 @@ class DatasetSpec(_Section):
     sonar: SonarSpec = _f(None, "section", cls=SonarSpec)
     poses: PoseSpec = _f(None, "section", cls=PoseSpec)
     output: OutputSpec = _f(None, "section", cls=OutputSpec)
+    call: CallSpec | None = _f(None, "opt_section", cls=CallSpec)
 
     def __post_init__(self) -> None:
         for name, cls in (
@@ -614,6 +684,11 @@ class DatasetSpec(_Section):
         super().__post_init__()
 
     def _check(self) -> None:
+        if self.call is not None:
+            try:
+                self.call.make(self.sonar.fs)
+            except (TypeError, ValueError) as exc:
+                raise SpecError(f"call: {exc}") from None
         if self.scene.reuse == "pool" and self.scene.pool_size > self.n_samples:
             raise SpecError(
                 f"scene.pool_size = {self.scene.pool_size} exceeds n_samples = {self.n_samples}"
@@ -765,6 +840,6 @@ def _dump_toml(data: Mapping[str, Any]) -> str:
 
 #: Which keys of each table are sub-tables (written as [a.b]); others are inline values.
 _TABLE_KEYS: dict[str, tuple[str, ...]] = {
-    "": ("scene", "leaves", "sonar", "poses", "output"),
+    "": ("scene", "leaves", "sonar", "poses", "output", "call"),
     "scene": ("leaf_box", "forest"),
 }

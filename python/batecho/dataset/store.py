@@ -8,7 +8,10 @@ Layout (Zarr format 3, consolidated metadata; opens with ``xarray.open_zarr``)::
       time (time,) s, range (time,) m, freq (freq,) Hz      coordinates
       impulse  (sample, pulse, time)  float32|float64       when output.impulse
       spectrum (sample, pulse, freq)  complex64|complex128  when output.spectrum
+      received (sample, pulse, time)  float32|float64       with a [call]
       n_leaves, nearest_range_m, lobe_mean_radius_m (sample, pulse)     per-pulse labels
+      receiver (receiver,)            with two ears: every per-pulse variable above gains
+                                      a receiver dimension after pulse (0 left, 1 right)
       position, forward, up (sample, pulse, xyz) m / unit vectors        the poses
       scene_index, beamwidth_deg, <pose and scene labels> (sample,)      per-sample labels
       chunk_checksum (chunk,) uint64                                     completion markers
@@ -108,11 +111,13 @@ def schema(spec: DatasetSpec) -> list[Var]:
     cplx = "complex64" if real == "float32" else "complex128"
     nan = float("nan")
     out: list[Var] = []
+    # (with two ears, a receiver dimension after pulse)
+    sp = ("sample", "pulse", "receiver") if spec.sonar.n_receivers else ("sample", "pulse")
     if spec.output.impulse:
         out.append(
             Var(
                 "impulse",
-                ("sample", "pulse", "time"),
+                (*sp, "time"),
                 real,
                 nan,
                 "1",
@@ -123,14 +128,24 @@ def schema(spec: DatasetSpec) -> list[Var]:
         out.append(
             Var(
                 "spectrum",
-                ("sample", "pulse", "freq"),
+                (*sp, "freq"),
                 cplx,
                 complex(nan, nan),
                 "1",
                 "windowed band spectrum Y_k at freq",
             )
         )
-    sp = ("sample", "pulse")
+    if spec.call is not None:
+        out.append(
+            Var(
+                "received",
+                (*sp, "time"),
+                real,
+                nan,
+                "1",
+                "the impulse response convolved with the call, plus the noise, cropped",
+            )
+        )
     out += [
         Var("n_leaves", sp, "int32", -1, "1", "leaves that counted for the pulse (in the lobe)"),
         Var(
@@ -149,9 +164,9 @@ def schema(spec: DatasetSpec) -> list[Var]:
             "m",
             "mean radius of the counting leaves (NaN: none counted)",
         ),
-        Var("position", (*sp, "xyz"), "float64", nan, "m", "pulse position (x, y, z)"),
-        Var("forward", (*sp, "xyz"), "float64", nan, "1", "beam axis, unit vector"),
-        Var("up", (*sp, "xyz"), "float64", nan, "1", "sonar up, unit vector"),
+        Var("position", ("sample", "pulse", "xyz"), "float64", nan, "m", "pulse position"),
+        Var("forward", ("sample", "pulse", "xyz"), "float64", nan, "1", "beam axis, unit"),
+        Var("up", ("sample", "pulse", "xyz"), "float64", nan, "1", "sonar up, unit vector"),
         Var("scene_index", ("sample",), "int64", -1, "1", "index of the scene the sample used"),
         Var("beamwidth_deg", ("sample",), "float64", nan, "degree", "full -3 dB beamwidth drawn"),
     ]
@@ -180,7 +195,14 @@ def coordinates(spec: DatasetSpec) -> dict[str, tuple[tuple[str, ...], np.ndarra
         ),
         "chunk": (("chunk",), np.arange(spec.n_chunks, dtype=np.int64), "1", "chunk index"),
     }
-    if spec.output.impulse:
+    if spec.sonar.n_receivers:
+        out["receiver"] = (
+            ("receiver",),
+            np.arange(spec.sonar.n_receivers, dtype=np.int64),
+            "1",
+            "receiver: 0 the left ear, 1 the right ear",
+        )
+    if spec.output.impulse or spec.call is not None:
         out["time"] = (("time",), times, "s", "time since the pulse")
         out["range"] = (("time",), sonar.sound_speed * times / 2.0, "m", "range v t / 2")
     if spec.output.spectrum:
@@ -201,6 +223,7 @@ def _shape(spec: DatasetSpec, dims: tuple[str, ...]) -> tuple[int, ...]:
         "time": t1 - t0,
         "freq": spec.sonar.n_bins,
         "xyz": 3,
+        "receiver": spec.sonar.n_receivers,
     }
     return tuple(size[d] for d in dims)
 
@@ -431,7 +454,7 @@ def _lay_out(store: StoreLike, spec: DatasetSpec, overwrite: bool) -> Any:
             attributes={"units": units, "long_name": desc},
         )
         a[:] = values
-    has_range = spec.output.impulse
+    has_range = spec.output.impulse or spec.call is not None
     for v in schema(spec):
         shape = _shape(spec, v.dims)
         attrs = {"units": v.units, "long_name": v.long_name}
@@ -473,7 +496,9 @@ def _lay_out(store: StoreLike, spec: DatasetSpec, overwrite: bool) -> Any:
             "chunk_size": spec.chunk_size,
             "n_chunks": spec.n_chunks,
             "scene_kind": spec.scene.kind,
-            "dims": "sample, pulse, time (s), freq (Hz), xyz (x, y, z; world frame, z up)",
+            "dims": "sample, pulse, "
+            + ("receiver (0 left, 1 right ear), " if spec.sonar.n_receivers else "")
+            + "time (s), freq (Hz), xyz (x, y, z; world frame, z up)",
         }
     )
     _consolidate(store)

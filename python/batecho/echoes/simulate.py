@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,6 +19,7 @@ from ..forest.clearance import (
     low_clearance,
 )
 from ..forest.scene import Scene, as_scene
+from ..sonar.call import Call
 from ..sonar.sonar import Sonar
 
 #: The methods of :func:`simulate`.
@@ -34,6 +37,10 @@ class Echoes:
     ``spectrum`` (p, M) complex128: the windowed band spectrum ``Y_k`` at ``freqs`` (M,) Hz.
     ``impulse`` (p, n_samples) float64: ``2 irfft(Y, n)`` at ``times`` (n_samples,) s.
     ``n_leaves`` (p,): how many leaves counted for each pose.
+
+    With receivers of their own (``Sonar(receivers=...)``, ``R`` of them), every per-pose
+    array has a receiver axis after the pose axis: ``spectrum`` (p, R, M), ``impulse``
+    (p, R, n_samples), ``n_leaves`` (p, R).
     """
 
     spectrum: np.ndarray
@@ -43,20 +50,102 @@ class Echoes:
     n_leaves: np.ndarray
     sonar: Sonar
     poses: Poses
+    #: For the echoes of one receiver taken from a sonar's receivers (:meth:`for_receiver`),
+    #: its index there.
+    receiver: int | None = None
 
     @property
     def ranges(self) -> np.ndarray:
         """(n_samples,) range of each sample, ``v t / 2`` (m)."""
         return self.sonar.sound_speed * self.times / 2.0
 
+    @property
+    def n_receivers(self) -> int:
+        """The length of the receiver axis (0: none)."""
+        return self.spectrum.shape[1] if self.spectrum.ndim == 3 else 0
+
+    def for_receiver(self, j: int) -> Echoes:
+        """The echoes of receiver ``j`` alone: every array without the receiver axis (so
+        that the plots of one receiver's echoes take them)."""
+        if not self.n_receivers:
+            raise ValueError("these echoes have no receiver axis (Sonar(receivers=...))")
+        if isinstance(j, bool) or not isinstance(j, (int, np.integer)):
+            raise TypeError(f"receiver must be an int index, got {j!r}")
+        if not 0 <= j < self.n_receivers:
+            raise ValueError(f"receiver {j} out of range: the echoes have {self.n_receivers}")
+        return Echoes(
+            spectrum=self.spectrum[:, j],
+            freqs=self.freqs,
+            impulse=self.impulse[:, j],
+            times=self.times,
+            n_leaves=self.n_leaves[:, j],
+            sonar=self.sonar,
+            poses=self.poses,
+            receiver=int(j),
+        )
+
     def envelope(self) -> np.ndarray:
-        """(p, n_samples) envelope ``|analytic signal|`` of the impulse responses."""
+        """(p, [R,] n_samples) envelope ``|analytic signal|`` of the impulse responses."""
         from scipy.signal import hilbert
 
         return np.abs(hilbert(self.impulse, axis=-1))
 
     def __len__(self) -> int:
         return self.spectrum.shape[0]
+
+    # The call, the noise and the matched filter (docs/model.md §5b) -------------------------
+    def received(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
+        """(p, [R,] n_samples) what the receivers record: the impulse responses convolved with
+        ``call`` (by FFT), truncated to the record, plus white Gaussian noise of rms
+        ``noise_rms`` drawn from ``rng`` (a Generator, an int seed or None)."""
+        from .received import received
+
+        return received(self.impulse, self.sonar.fs, call, noise_rms, rng)
+
+    def compressed(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
+        """(p, [R,] n_samples) the pulse-compressed output: :meth:`received` through the
+        matched filter of ``call`` (its correlation with the call over the call's energy), so
+        that an echo arriving at ``t0`` peaks at ``t0`` with the impulse response's scale."""
+        from .received import compressed
+
+        return compressed(self.impulse, self.sonar.fs, call, noise_rms, rng)
+
+    # Exports -----------------------------------------------------------------------------
+    def to_xarray(self, call: Call | None = None, received: np.ndarray | None = None):
+        """An ``xarray.Dataset`` with dimensions (pose, receiver, time, frequency), units and
+        the sonar's parameters; with ``call``, what the receivers record (see
+        :func:`batecho.echoes.export.to_xarray`)."""
+        from .export import to_xarray
+
+        return to_xarray(self, call, received)
+
+    def to_wav(
+        self,
+        path: str | os.PathLike,
+        time_expansion: float = 10.0,
+        receiver: int | None = None,
+        call: Call | None = None,
+        noise_rms: float = 0.0,
+        rng: Any = None,
+    ) -> Path:
+        """A WAV file to listen to: time-expanded ``time_expansion`` times (rate
+        ``fs / time_expansion``), normalised, one channel per receiver (stereo for two ears),
+        the poses one after another (see :func:`batecho.echoes.export.to_wav`)."""
+        from .export import to_wav
+
+        return to_wav(self, path, time_expansion, receiver, call, noise_rms, rng)
+
+    def to_mat(
+        self,
+        path: str | os.PathLike,
+        call: Call | None = None,
+        received: np.ndarray | None = None,
+    ) -> Path:
+        """A MATLAB MAT file of the echoes; with ``call``, what the receivers record (see
+        :func:`batecho.echoes.export.to_mat`)."""
+        from .export import to_mat
+
+        return to_mat(self, path, call, received)
 
 
 def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
@@ -157,18 +246,34 @@ def simulate(
     )
 
 
-def lobe_members(scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh") -> np.ndarray:
+def lobe_members(
+    scene: Any, sonar: Sonar, pose: Poses, *, search: str = "bvh", receiver: int | None = None
+) -> np.ndarray:
     """Indices (ascending, int64) of the leaves that count for one pose.
 
     ``search="bvh"`` traverses the BVH; ``"brute_force"`` tests every leaf. Both apply the same
-    exact f64 test per leaf, so they return the same set.
+    exact f64 test per leaf, so they return the same set. For a sonar with receivers of its
+    own, ``receiver`` (an index) names the one whose counting leaves are wanted.
     """
     sonar, pose = _check(sonar, pose)
     if len(pose) != 1:
         raise ValueError(f"lobe_members takes one pose; got {len(pose)} (index it: poses[i])")
+    if receiver is not None and (
+        isinstance(receiver, bool) or not isinstance(receiver, (int, np.integer))
+    ):
+        raise TypeError(f"receiver must be an int index or None, got {receiver!r}")
+    if receiver is not None and receiver < 0:
+        raise ValueError(f"receiver must be >= 0, got {receiver}")
     sc = as_scene(scene)
     return _core.lobe_members(
-        sc._core, sonar._core, pose.positions, pose.forward, pose.up, pose.left, search
+        sc._core,
+        sonar._core,
+        pose.positions,
+        pose.forward,
+        pose.up,
+        pose.left,
+        search,
+        None if receiver is None else int(receiver),
     )
 
 

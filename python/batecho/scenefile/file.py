@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 
 from ..sonar.beam import Beam
+from ..sonar.call import Call
+from ..sonar.receivers import Receiver, binaural_receivers
 from ..sonar.sonar import Sonar
 from ..trees.leaves import Leaves
 from .flightplan import FlightPlan, flight_plan
@@ -88,16 +90,24 @@ class SceneFile:
         """The :class:`batecho.Sonar` of ``[sonar]``."""
         cfg = dict(self.config["sonar"])
         kw: dict[str, Any] = {}
+        binaural = cfg.pop("binaural", None)
         for key, val in cfg.items():
             if key in ("beam", "receiver"):
                 if val:
+                    kw[key] = self._beam(val, f"sonar.{key}")
+            elif key == "receivers":
+                rxs = []
+                for i, rx in enumerate(val):
+                    beam = (
+                        self._beam(rx["beam"], f"sonar.receivers[{i}].beam")
+                        if rx.get("beam")
+                        else None
+                    )
                     try:
-                        beam_kw: dict[str, Any] = {
-                            k: tuple(v) if isinstance(v, list) else v for k, v in val.items()
-                        }
-                        kw[key] = Beam(**beam_kw)
+                        rxs.append(Receiver(tuple(rx["offset_m"]), beam))
                     except (TypeError, ValueError) as exc:
-                        raise self._err(f"[sonar.{key}] {exc}") from None
+                        raise self._err(f"[sonar.receivers[{i}]] {exc}") from None
+                kw[key] = tuple(rxs)
             elif key == "absorption":
                 if val:
                     from ..sonar.absorption import Atmosphere
@@ -115,12 +125,46 @@ class SceneFile:
             if hb is not None:
                 if "beamwidth_deg" in kw or "beam" in kw:
                     raise ValueError("give horseshoe_bat_khz or beamwidth_deg / [sonar.beam]")
-                return Sonar.horseshoe_bat(hb, **kw)
-            return Sonar(**kw)
+                sonar = Sonar.horseshoe_bat(hb, **kw)
+            else:
+                sonar = Sonar(**kw)
+            if binaural:
+                ear = binaural.get("ear_beam")
+                ear_beam = self._beam(ear, "sonar.binaural.ear_beam") if ear else sonar.beam
+                assert ear_beam is not None
+                sonar = sonar.replace(
+                    receivers=binaural_receivers(
+                        binaural["separation_m"],
+                        binaural["ear_yaw_deg"],
+                        binaural["ear_pitch_deg"],
+                        ear_beam,
+                    )
+                )
+            return sonar
         except (TypeError, ValueError) as exc:
             raise self._err(f"[sonar] {exc}") from None
         except MemoryError as exc:
             raise MemoryError(f"{self._name}: [sonar] {exc}") from None
+
+    def _beam(self, table: dict[str, Any], where: str) -> Beam:
+        try:
+            kw: dict[str, Any] = {
+                k: tuple(v) if isinstance(v, list) else v for k, v in table.items()
+            }
+            return Beam(**kw)
+        except (TypeError, ValueError) as exc:
+            raise self._err(f"[{where}] {exc}") from None
+
+    def build_call(self, fs: float) -> Call | None:
+        """The :class:`batecho.Call` of ``[call]`` at the sonar's rate ``fs``, or None."""
+        c = self.config.get("call")
+        if not c:
+            return None
+        kw = {k: v for k, v in c.items() if k not in ("kind", "noise_rms")}
+        try:
+            return getattr(Call, c["kind"])(fs=fs, **kw)
+        except (TypeError, ValueError) as exc:
+            raise self._err(f"[call] {exc}") from None
 
     def build_scene(self, rng: np.random.Generator) -> tuple[Any, Leaves, np.ndarray | None]:
         """``(scene object, leaves, tree positions (t, 2) or None)`` of ``[scene]``; the scene

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import time
 import warnings
@@ -19,11 +18,11 @@ from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.clearance import ClearanceWarning, SolidClearance, low_clearance, solid_clearance
 from ..forest.scene import Scene
 from ..outputs.npz import write_npz
-from ..sonar.beam import Beam
+from ..sonar.record import sonar_params
 from ..sonar.sonar import Sonar
 from .file import SceneFile
 from .flightplan import FlightPlan
-from .schema import ScenefileError
+from .schema import RECEIVER_PLOTS, ScenefileError
 
 __all__ = [
     "RunResult",
@@ -35,37 +34,6 @@ __all__ = [
     "simulate_options",
     "sonar_params",
 ]
-
-
-def sonar_params(sonar: Sonar) -> dict[str, Any]:
-    """A :class:`batecho.Sonar`'s parameters as a dict that is also a valid ``[sonar]`` table
-    (None values left out; ``beam``/``receiver``/``absorption`` as sub-tables)."""
-    out: dict[str, Any] = {}
-    for f in dataclasses.fields(sonar):
-        if f.name.startswith("_"):
-            continue
-        v = getattr(sonar, f.name)
-        if v is None:
-            continue
-        if f.name in ("beam", "receiver", "absorption"):
-            sub = {
-                g.name: list(getattr(v, g.name))
-                if isinstance(getattr(v, g.name), tuple)
-                else getattr(v, g.name)
-                for g in dataclasses.fields(v)
-                if getattr(v, g.name) is not None
-            }
-            out[f.name] = sub
-        elif isinstance(v, tuple):
-            out[f.name] = list(v)
-        else:
-            out[f.name] = v
-    if sonar.beam is not None and sonar.beam.beamwidth_deg is not None:
-        defaults = Beam(beamwidth_deg=sonar.beam.beamwidth_deg)
-        if sonar.beam == defaults:
-            out.pop("beam")
-            out["beamwidth_deg"] = sonar.beam.beamwidth_deg
-    return out
 
 
 def simulate_options(method: str = DEFAULT_METHOD, tol: float = DEFAULT_TOL) -> dict[str, Any]:
@@ -110,7 +78,7 @@ def setup_scenefile(sf: SceneFile) -> SimulationSetup:
     plan = sf.build_flight(
         center,
         obj if pos is not None else None,
-        bytes_per_pulse=echoes_bytes_per_pulse(bins, n),
+        bytes_per_pulse=echoes_bytes_per_pulse(bins, n, sonar.n_receivers),
     )
     t3 = time.perf_counter()
     return SimulationSetup(
@@ -216,6 +184,13 @@ def run_scenefile(
     files: list[Path] = []
     p = len(echoes)
     idx = sample_indices(p, oc["sample_points"], st.plan.closed)
+    call = sf.build_call(st.sonar.fs)
+    received = None
+    if call is not None:
+        say(f"receiving the call ({call!r})")
+        # (the noise's own stream of the file's seed)
+        noise_rng = np.random.default_rng([abs(int(sf.seed)), 34])
+        received = echoes.received(call, cfg["call"]["noise_rms"], noise_rng)
     if oc["npz"]:
         say("writing echoes.npz")
         scene_desc = {
@@ -244,6 +219,11 @@ def run_scenefile(
         }
         if oc["impulse"]:
             arrays["impulse"] = echoes.impulse
+        if echoes.n_receivers:
+            arrays["receiver_offsets"] = np.array([r.offset_m for r in st.sonar.receivers or ()])
+        if received is not None and call is not None:
+            arrays["received"] = received
+            arrays["call"] = call.samples
         if st.plan.flight is not None:
             fl = st.plan.flight
             arrays["flight_times"] = fl.times
@@ -255,12 +235,43 @@ def run_scenefile(
             "scene_json": scene_desc,
         }
         files.append(write_npz(out / "echoes.npz", arrays, records))
+    files += _exports(echoes, out, oc, call, received, say)
     if oc["obj"]:
         say("writing scene.obj")
         files.append(_write_scene_obj(st, out / "scene.obj"))
     if plots and oc["plots"]:
         files += _plots(st, echoes, idx, out, oc, say)
     return RunResult(st, echoes, files, timings, clearance)
+
+
+def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
+    """``[output] wav``, ``mat`` and ``xarray``: the received call where ``[call]`` is given,
+    else the impulse responses."""
+    files = []
+    if oc["wav"]:
+        say("writing echoes.wav")
+        files.append(_wav(echoes, out / "echoes.wav", oc["wav_time_expansion"], received))
+    if oc["mat"]:
+        say("writing echoes.mat")
+        files.append(echoes.to_mat(out / "echoes.mat", call=call, received=received))
+    if oc["xarray"]:
+        say("writing echoes.zarr")
+        import shutil
+
+        path = out / "echoes.zarr"
+        if path.exists():
+            shutil.rmtree(path)
+        ds = echoes.to_xarray(call=call, received=received)
+        ds.to_zarr(path, consolidated=False)
+        files.append(path)
+    return files
+
+
+def _wav(echoes, path: Path, time_expansion: float, received) -> Path:
+    from ..echoes.export import write_wav
+
+    x = echoes.impulse if received is None else received
+    return write_wav(path, x if echoes.n_receivers else x[:, None], echoes.sonar.fs, time_expansion)
 
 
 def _write_scene_obj(st: SimulationSetup, path: Path) -> Path:
@@ -270,6 +281,25 @@ def _write_scene_obj(st: SimulationSetup, path: Path) -> Path:
     from ..trees.objfile import write_obj
 
     return write_obj(path, leaves=st.scene.leaves)
+
+
+def _receiver_plot(name: str, echoes, best: int, st: SimulationSetup):
+    from ..outputs.binaural import (
+        plot_binaural_echo_images,
+        plot_binaural_impulses,
+        plot_interaural_differences,
+    )
+
+    x = st.plan.x
+    order_ok = len(np.unique(x)) == len(x)
+    kw: dict[str, Any] = dict(
+        x=x if order_ok else None, xlabel=st.plan.x_label if order_ok else "pulse"
+    )
+    if name == "binaural_impulses":
+        return plot_binaural_impulses(echoes, best)
+    if name == "binaural_echo_images":
+        return plot_binaural_echo_images(echoes, **kw)
+    return plot_interaural_differences(echoes, **kw)
 
 
 def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[Path]:
@@ -286,6 +316,10 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
 
     files = []
     dpi = oc["dpi"]
+    heard = echoes
+    if echoes.n_receivers:
+        # (the one-receiver plots draw the first receiver: the left ear of two)
+        echoes = echoes.for_receiver(0)
     best = int(idx[np.argmax(echoes.n_leaves[idx])])
 
     def save(fig, name):
@@ -298,7 +332,10 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
     for name in oc["plots"]:
         say(f"plotting {name}")
         if name == "scene":
-            members = [lobe_members(st.scene, st.sonar, st.plan.poses[int(i)]) for i in idx]
+            first = 0 if heard.n_receivers else None
+            members = [
+                lobe_members(st.scene, st.sonar, st.plan.poses[int(i)], receiver=first) for i in idx
+            ]
             fig = plot_scene_3d(
                 st.scene_object,
                 st.plan.poses,
@@ -337,4 +374,6 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
         elif name == "spectrum":
             fig = plot_spectrum(echoes, best)
             save(fig, "spectrum.png")
+        elif name in RECEIVER_PLOTS:
+            save(_receiver_plot(name, heard, best, st), f"{name}.png")
     return files

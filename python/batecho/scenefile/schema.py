@@ -25,8 +25,22 @@ and default, and the checks that fill in the defaults of a parsed file.
     [flight.mount]                # batecho.SonarMount
     pitch_deg = -5
 
+    [sonar.binaural]              # two ears (batecho.Sonar.binaural), or [[sonar.receivers]]
+    separation_m = 0.02
+    ear_yaw_deg = 30
+
+    [call]                        # the emitted call: what the receivers record (optional)
+    kind = "linear_fm"            # "linear_fm" | "hyperbolic_fm" | "cf_fm"
+    f_start_hz = 80e3
+    f_end_hz = 60e3
+    duration_s = 2e-3
+    noise_rms = 0.0
+
     [output]
     plots = ["scene", "impulses", "echo_image", "spectrogram"]
+    wav = true                    # echoes.wav, time-expanded (wav_time_expansion = 10)
+    mat = true                    # echoes.mat (MATLAB)
+    xarray = true                 # echoes.zarr (xarray.open_zarr)
 
 A flight that brings a pulse closer than ``[flight] min_clearance_m`` (default 0.5 m) to a leaf
 or to bark is refused unless ``[flight] allow_low_clearance = true``.
@@ -48,13 +62,31 @@ from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.clearance import DEFAULT_MIN_CLEARANCE_M
 from ..forest.models import TREE_MODELS
 
-__all__ = ["PLOTS", "SCENE_KEYS_BY_KIND", "ScenefileError", "check_document"]
+__all__ = [
+    "CALL_KINDS",
+    "PLOTS",
+    "RECEIVER_PLOTS",
+    "SCENE_KEYS_BY_KIND",
+    "ScenefileError",
+    "check_document",
+]
 
 #: The highest resolution of the plots (dots per inch).
 MAX_DPI = 2400
 
 #: The plots a scene file may ask for in ``[output] plots``.
-PLOTS = ("scene", "impulses", "echo_image", "spectrogram", "spectrum")
+PLOTS = (
+    "scene",
+    "impulses",
+    "echo_image",
+    "spectrogram",
+    "spectrum",
+    "binaural_impulses",
+    "binaural_echo_images",
+    "interaural",
+)
+#: The plots that need two receivers or more.
+RECEIVER_PLOTS = ("binaural_impulses", "binaural_echo_images", "interaural")
 
 
 class ScenefileError(ValueError):
@@ -116,6 +148,36 @@ _SONAR = {
     "beam": _table(_BEAM),
     "receiver": _table(_BEAM),
     "absorption": _table(_ATMOSPHERE),
+    "receivers": _Opt("receivers", doc="[[sonar.receivers]] offset_m = [f, l, u], [.beam]"),
+    "binaural": _Opt("binaural", doc="separation_m, ear_yaw_deg, ear_pitch_deg, [.ear_beam]"),
+}
+_RECEIVER = {
+    "offset_m": _Opt("vec3", [0.0, 0.0, 0.0], doc="(forward, left, up) from the emitter, m"),
+    "beam": _table(_BEAM),
+}
+_BINAURAL = {
+    "separation_m": _Opt("float", _REQUIRED),
+    "ear_yaw_deg": _Opt("float", _REQUIRED),
+    "ear_pitch_deg": _Opt("float", 0.0),
+    "ear_beam": _table(_BEAM),
+}
+#: The calls of ``[call] kind``: batecho.Call's constructors.
+CALL_KINDS = ("linear_fm", "hyperbolic_fm", "cf_fm")
+_CALL = {
+    "kind": _Opt("str", _REQUIRED, choices=CALL_KINDS),
+    "f_start_hz": _Opt("float", doc="linear_fm, hyperbolic_fm"),
+    "f_end_hz": _Opt("float", doc="linear_fm, hyperbolic_fm"),
+    "f_cf_hz": _Opt("float", doc="cf_fm: the constant frequency"),
+    "fm_end_hz": _Opt("float", doc="cf_fm: where the FM tail ends"),
+    "fm_duration_s": _Opt("float", doc="cf_fm: the FM tail's duration"),
+    "duration_s": _Opt("float", _REQUIRED),
+    "window": _Opt("str", choices=("hann", "hamming", "blackman", "tukey", "rect")),
+    "noise_rms": _Opt("float", 0.0, doc="white Gaussian noise added to what is received"),
+}
+_CALL_KEYS = {
+    "linear_fm": {"f_start_hz", "f_end_hz"},
+    "hyperbolic_fm": {"f_start_hz", "f_end_hz"},
+    "cf_fm": {"f_cf_hz", "fm_end_hz", "fm_duration_s"},
 }
 _SCENE_KINDS = ("leaf_box", "obj", "tree", "forest")
 _TREE_MODELS = tuple(TREE_MODELS)
@@ -228,6 +290,10 @@ _OUTPUT = {
     "dpi": _Opt("int", 120),
     "sample_points": _Opt("int", 4, doc="pulses whose impulse responses and lobes are drawn"),
     "max_scene_points": _Opt("int", 6000),
+    "wav": _Opt("bool", False, doc="echoes.wav: one channel per receiver, time-expanded"),
+    "wav_time_expansion": _Opt("float", 10.0, doc="the WAV's rate is fs / this"),
+    "mat": _Opt("bool", False, doc="echoes.mat (MATLAB, scipy.io.savemat)"),
+    "xarray": _Opt("bool", False, doc="echoes.zarr: the xarray Dataset (xarray extra)"),
 }
 _TOP = {
     "seed": _Opt("int", 0),
@@ -238,6 +304,7 @@ _TOP = {
     "sonar": _table(_SONAR),
     "flight": _table(_FLIGHT),
     "output": _table(_OUTPUT),
+    "call": _Opt("table", choices=(_CALL,)),
 }
 
 
@@ -371,6 +438,14 @@ def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
             )
             return out
         raise _fail(where, key, f'expected "paper" or a table, got {v!r} ({_tname(v)})')
+    if k == "receivers":
+        if not isinstance(v, list) or not v or not all(isinstance(x, dict) for x in v):
+            raise _fail(where, key, f"expected [[{where}.{key}]] tables, got {v!r}")
+        return [_check_table(x, _RECEIVER, f"{where}.{key}[{i}]") for i, x in enumerate(v)]
+    if k == "binaural":
+        if not isinstance(v, dict):
+            raise _fail(where, key, f"expected a table, got {v!r} ({_tname(v)})")
+        return _check_table(v, _BINAURAL, f"{where}.{key}")
     if k == "table":
         if not isinstance(v, dict):
             raise _fail(where, key, f"expected a table, got {v!r} ({_tname(v)})")
@@ -465,6 +540,31 @@ def check_document(doc: dict) -> dict[str, Any]:
         raise ScenefileError('[flight]: heading = "fixed" needs yaw_deg')
     if "yaw_deg" in fl and fl["heading"] != "fixed":
         raise ScenefileError('[flight] yaw_deg: only used with heading = "fixed"')
+    so = cfg["sonar"]
+    if "binaural" in so and ("receivers" in so or so.get("receiver")):
+        raise ScenefileError(
+            "[sonar] binaural: give [sonar.binaural] or [[sonar.receivers]] / [sonar.receiver], "
+            "not both"
+        )
+    if "call" in cfg:
+        call = cfg["call"]
+        for key in ("f_start_hz", "f_end_hz", "f_cf_hz", "fm_end_hz", "fm_duration_s"):
+            if key in call and key not in _CALL_KEYS[call["kind"]]:
+                raise ScenefileError(
+                    f'[call] {key}: not used with kind = "{call["kind"]}"; keys for this kind: '
+                    f"{', '.join(sorted(_CALL_KEYS[call['kind']]))}, duration_s, window, "
+                    "noise_rms"
+                )
+        missing = sorted(_CALL_KEYS[call["kind"]] - set(call))
+        if missing:
+            raise ScenefileError(f'[call]: kind = "{call["kind"]}" needs {", ".join(missing)}')
+    two = "binaural" in so or len(so.get("receivers", [])) >= 2
+    for name in cfg["output"]["plots"]:
+        if name in RECEIVER_PLOTS and not two:
+            raise ScenefileError(
+                f'[output] plots: "{name}" needs two receivers ([sonar.binaural] or two '
+                "[[sonar.receivers]])"
+            )
     for key in ("sample_points", "dpi", "max_scene_points"):
         if cfg["output"][key] < 1:
             raise ScenefileError(f"[output] {key}: must be >= 1, got {cfg['output'][key]}")

@@ -19,6 +19,7 @@ from .. import _core
 from .._validate import finite_scalar, integer, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
+from .receivers import MAX_RECEIVERS, Receiver, binaural_receivers
 
 _LOBES = ("detectable", "cone")
 _MODELS = ("paper", "physical_optics")
@@ -45,6 +46,10 @@ class Sonar:
     sigma per axis, rotation and beam centre. ``receiver`` gives the receiver its own pattern
     (default: the emitter's, so the two-way gain is ``S^2``).
 
+    Receivers: ``receivers`` (a sequence of :class:`Receiver`) puts receivers at their own
+    places, each with its own pattern (docs/model.md §5a); every per-pose array of the echoes
+    then has a receiver axis after the pose axis. :meth:`binaural` makes two ears.
+
     Grid: sample rate ``fs`` (Hz), record length ``n_samples``, ``band_hz = (f_lo, f_hi)``,
     ``sound_speed`` (m/s). Band bins run from ``round(f_lo/df)`` to ``round(f_hi/df)``,
     ``df = fs/n_samples``. ``n_samples="auto"`` takes the record, per call of ``simulate``,
@@ -68,6 +73,7 @@ class Sonar:
     beamwidth_deg: float | None = None
     beam: Beam | None = None
     receiver: Beam | None = None
+    receivers: tuple[Receiver, ...] | None = None
     fs: float = 400e3
     n_samples: int | str = 24_000
     band_hz: tuple[float, float] = (60e3, 80e3)
@@ -103,6 +109,28 @@ class Sonar:
         for name, b in (("beam", self.beam), ("receiver", self.receiver)):
             if b is not None and not isinstance(b, Beam):
                 raise TypeError(f"{name} must be a batecho.Beam, got {type(b).__name__}")
+        if self.receivers is not None:
+            if isinstance(self.receivers, Receiver):
+                raise TypeError("receivers must be a sequence of batecho.Receiver: (receiver,)")
+            try:
+                rxs = tuple(self.receivers)
+            except TypeError:
+                raise TypeError(
+                    f"receivers must be a sequence of batecho.Receiver, got {self.receivers!r}"
+                ) from None
+            for i, r in enumerate(rxs):
+                if not isinstance(r, Receiver):
+                    raise TypeError(f"receivers[{i}] must be a batecho.Receiver, got {r!r}")
+            if not 1 <= len(rxs) <= MAX_RECEIVERS:
+                raise ValueError(
+                    f"receivers must hold 1 to {MAX_RECEIVERS} receivers, got {len(rxs)}"
+                )
+            if self.receiver is not None:
+                raise ValueError(
+                    "give the receiving pattern as receiver or as receivers, not both "
+                    "(a Receiver has a beam of its own)"
+                )
+            object.__setattr__(self, "receivers", rxs)
         if self.lobe not in _LOBES:
             raise ValueError(f"lobe must be one of {_LOBES}, got {self.lobe!r}")
         if self.leaf_model not in _MODELS:
@@ -184,9 +212,52 @@ class Sonar:
             num["min_range_m"],
             self.too_close,
             num["min_ka"],
+            None if self.receivers is None else [r._core_tuple() for r in self.receivers],
         )
         object.__setattr__(self, "_core", core)
         object.__setattr__(self, "_resolved", {})
+
+    @classmethod
+    def binaural(
+        cls,
+        separation_m: float,
+        ear_yaw_deg: float,
+        ear_pitch_deg: float = 0.0,
+        *,
+        ear_beam: Beam | None = None,
+        **sonar_kw,
+    ) -> Sonar:
+        """A sonar with two ears at ``±separation_m / 2`` along the left axis, each turned
+        outward by ``ear_yaw_deg`` (the left ear to the left) and up by ``ear_pitch_deg``. The
+        left ear comes first on the receiver axis.
+
+        Each ear's pattern is ``ear_beam``'s shape (default: the emitter's, from
+        ``beamwidth_deg`` or ``beam`` in ``sonar_kw``) centred on its own direction. The other
+        keywords are :class:`Sonar`'s.
+        """
+        sep = positive_scalar(separation_m, "separation_m", allow_zero=True)
+        yaw = finite_scalar(ear_yaw_deg, "ear_yaw_deg")
+        pitch = finite_scalar(ear_pitch_deg, "ear_pitch_deg")
+        if abs(yaw) > 180.0 or abs(pitch) > 90.0:
+            raise ValueError(
+                f"ear_yaw_deg must be in [-180, 180] and ear_pitch_deg in [-90, 90], "
+                f"got {yaw}, {pitch}"
+            )
+        for key in ("receiver", "receivers"):
+            if key in sonar_kw:
+                raise TypeError(f"Sonar.binaural makes the receivers; do not pass {key}")
+        if ear_beam is not None and not isinstance(ear_beam, Beam):
+            raise TypeError(f"ear_beam must be a batecho.Beam, got {type(ear_beam).__name__}")
+        emitter = cls(**sonar_kw)
+        shape = ear_beam if ear_beam is not None else emitter.beam
+        assert shape is not None  # set in __post_init__
+        return emitter.replace(receivers=binaural_receivers(sep, yaw, pitch, shape))
+
+    @property
+    def n_receivers(self) -> int:
+        """The number of receivers of their own (0: the echo is heard at the emitter, and
+        results have no receiver axis)."""
+        return 0 if self.receivers is None else len(self.receivers)
 
     @classmethod
     def horseshoe_bat(cls, f_khz: float = 70.0, **kwargs) -> Sonar:
@@ -212,7 +283,8 @@ class Sonar:
 
     def reach_m(self) -> float:
         """The farthest a leaf can count from the lobe rule alone (m): ``sqrt(K A_tx A_rx)``
-        for the detectable rule (10 m with the defaults), ``max_range_m`` for the cone."""
+        for the detectable rule (10 m with the defaults), ``max_range_m`` for the cone. With
+        receivers, the farthest delay range ``(r_tx + r_rx) / 2``."""
         if self.lobe == "cone":
             if self.max_range_m is None:
                 return math.inf
@@ -221,8 +293,19 @@ class Sonar:
         K = self.r0_m * self.r0_m * self.p0_pa / level
         tx = self.beam
         assert tx is not None  # set in __post_init__
-        rx = tx if self.receiver is None else self.receiver
-        reach = math.sqrt(K * tx.amplitude * rx.amplitude)
+        if self.receivers is None:
+            rx = tx if self.receiver is None else self.receiver
+            reach = math.sqrt(K * tx.amplitude * rx.amplitude)
+        else:
+            # the delay range (r_tx + r_rx) / 2 with r_tx r_rx <= K A_tx A_rx and
+            # |r_tx - r_rx| <= |offset| (docs/model.md §5a)
+            reach = max(
+                math.sqrt(
+                    K * tx.amplitude * (tx if r.beam is None else r.beam).amplitude
+                    + r.distance_m**2 / 4.0
+                )
+                for r in self.receivers
+            )
         return reach if self.max_range_m is None else min(reach, float(self.max_range_m))
 
     def record_length_for(self, range_m: float) -> int:

@@ -4,8 +4,8 @@
 use batecho::lobe::{self, Search};
 use batecho::physics::pose::Pose;
 use batecho::simulate;
-use numpy::ndarray::Array2;
-use numpy::{Complex64, IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2};
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{Complex64, IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -45,12 +45,13 @@ fn search_from(s: &str) -> PyResult<Search> {
 }
 
 type SimOut<'py> = (
-    Bound<'py, PyArray2<Complex64>>,
-    Option<Bound<'py, PyArray2<f64>>>,
-    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArrayDyn<Complex64>>,
+    Option<Bound<'py, PyArrayDyn<f64>>>,
+    Bound<'py, PyArrayDyn<u64>>,
 );
 
-/// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`.
+/// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,))`;
+/// with `R` receivers of their own, `(p, R, M)`, `(p, R, n)` and `(p, R)`.
 /// `method` is "exact", "fast" or "auto" (the last two use `tol`); both are required, so that
 /// the defaults live in one place (`batecho.simulate`).
 #[pyfunction(name = "simulate")]
@@ -82,36 +83,46 @@ pub(crate) fn simulate_py<'py>(
         }
     };
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
+    let poses_len = poses.len();
     let out = py
         .detach(move || simulate::simulate(&sc, &so, &poses, impulse, search, method))
         .map_err(to_py)?;
-    let p = out.n_leaves.len();
+    let p = poses_len;
     let m = out.n_bins;
+    // (p,) or (p, R): the leading axes of every array
+    let lead: Vec<usize> = match out.n_receivers {
+        0 => vec![p],
+        r => vec![p, r],
+    };
+    let shape = |last: usize| -> Vec<usize> { lead.iter().copied().chain([last]).collect() };
     let spec: Vec<Complex64> = out
         .spectrum_re
         .iter()
         .zip(&out.spectrum_im)
         .map(|(&re, &im)| Complex64::new(re, im))
         .collect();
-    let spec = Array2::from_shape_vec((p, m), spec)
-        .expect("p * M values")
+    let spec = ArrayD::from_shape_vec(IxDyn(&shape(m)), spec)
+        .expect("p * R * M values")
         .into_pyarray(py);
     let imp = if impulse {
         let n = sonar.inner.params.n_samples;
         Some(
-            Array2::from_shape_vec((p, n), out.impulse)
-                .expect("p * n values")
+            ArrayD::from_shape_vec(IxDyn(&shape(n)), out.impulse)
+                .expect("p * R * n values")
                 .into_pyarray(py),
         )
     } else {
         None
     };
-    Ok((spec, imp, out.n_leaves.into_pyarray(py)))
+    let counts = ArrayD::from_shape_vec(IxDyn(&lead), out.n_leaves)
+        .expect("p * R counts")
+        .into_pyarray(py);
+    Ok((spec, imp, counts))
 }
 
 /// Indices (ascending) of the leaves that count for one pose.
 #[pyfunction]
-#[pyo3(signature = (scene, sonar, position, forward, up, left, search="bvh"))]
+#[pyo3(signature = (scene, sonar, position, forward, up, left, search="bvh", receiver=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn lobe_members<'py>(
     py: Python<'py>,
@@ -122,6 +133,7 @@ pub(crate) fn lobe_members<'py>(
     up: PyReadonlyArray2<'py, f64>,
     left: PyReadonlyArray2<'py, f64>,
     search: &str,
+    receiver: Option<usize>,
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let poses = poses_from(&position, &forward, &up, &left)?;
     if poses.len() != 1 {
@@ -133,13 +145,29 @@ pub(crate) fn lobe_members<'py>(
     let search = search_from(search)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let pose = poses[0];
+    let n_rx = so.params.receivers.len();
+    match receiver {
+        Some(k) if k >= n_rx => {
+            return Err(PyValueError::new_err(format!(
+                "receiver {k} out of range: the sonar has {n_rx} receivers"
+            )))
+        }
+        None if n_rx > 0 => {
+            return Err(PyValueError::new_err(format!(
+                "the sonar has {n_rx} receivers of their own: pass receiver= (an index)"
+            )))
+        }
+        _ => {}
+    }
     let ids = py
         .detach(move || {
-            lobe::members(&sc, &so, &pose, 0, search).map(|mem| {
-                let mut ids: Vec<i64> = mem
-                    .iter()
-                    .map(|m| sc.ids[m.index as usize] as i64)
-                    .collect();
+            let ids = match receiver {
+                None => lobe::members(&sc, &so, &pose, 0, search)
+                    .map(|mem| mem.iter().map(|m| m.index).collect::<Vec<u32>>()),
+                Some(k) => simulate::receivers::heard_members(&sc, &so, &pose, search, k),
+            };
+            ids.map(|ids| {
+                let mut ids: Vec<i64> = ids.iter().map(|&i| sc.ids[i as usize] as i64).collect();
                 ids.sort_unstable();
                 ids
             })

@@ -5,7 +5,7 @@ use batecho::error::Error;
 use batecho::fast::FastSonar;
 use batecho::physics::absorption::Atmosphere;
 use batecho::physics::beam::GaussianBeam;
-use batecho::sonar::{LeafModel, LobeRule, Sonar, SonarParams, TooClose, Window};
+use batecho::sonar::{LeafModel, LobeRule, Receiver, Sonar, SonarParams, TooClose, Window};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -17,6 +17,9 @@ fn beam_from(spec: (f64, f64, f64, f64, f64, f64)) -> Result<GaussianBeam, Error
     let (amp, sx, sy, rot, az0, el0) = spec;
     GaussianBeam::new(amp, sx, sy, rot, az0, el0)
 }
+
+/// A receiver from Python: its offset `(forward, left, up)` (m) and its beam (or None).
+type BeamAt = ((f64, f64, f64), Option<(f64, f64, f64, f64, f64, f64)>);
 
 /// A validated sonar with every kernel's cache. Angles in radians; see `batecho.Sonar`.
 #[pyclass(name = "Sonar", module = "batecho._core", frozen)]
@@ -31,7 +34,7 @@ impl PySonar {
     #[pyo3(signature = (
         emitter, receiver, lobe, threshold_db, r0, p0, p_ref, cone_half_angle, max_range,
         fs, n_samples, f_lo, f_hi, sound_speed, leaf_model, spreading, gain, window,
-        atmosphere, min_range, too_close, min_ka
+        atmosphere, min_range, too_close, min_ka, receivers=None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -57,6 +60,7 @@ impl PySonar {
         min_range: f64,
         too_close: &str,
         min_ka: f64,
+        receivers: Option<Vec<BeamAt>>,
     ) -> PyResult<Self> {
         let err = |m: String| PyValueError::new_err(m);
         let lobe = match lobe {
@@ -103,9 +107,20 @@ impl PySonar {
                 )))
             }
         };
+        let receivers = receivers
+            .unwrap_or_default()
+            .into_iter()
+            .map(|(offset, beam)| {
+                Ok(Receiver {
+                    offset: [offset.0, offset.1, offset.2],
+                    beam: beam.map(beam_from).transpose().map_err(to_py)?,
+                })
+            })
+            .collect::<PyResult<Vec<_>>>()?;
         let params = SonarParams {
             emitter: beam_from(emitter).map_err(to_py)?,
             receiver: receiver.map(beam_from).transpose().map_err(to_py)?,
+            receivers,
             lobe,
             max_range,
             fs,
@@ -153,6 +168,12 @@ impl PySonar {
     #[getter]
     fn max_reach(&self) -> f64 {
         self.inner.max_reach()
+    }
+
+    /// The number of receivers of their own (0: the echo is heard at the emitter).
+    #[getter]
+    fn n_receivers(&self) -> usize {
+        self.inner.params.receivers.len()
     }
 
     /// Absorption per band bin (dB/m), or None.

@@ -29,6 +29,7 @@ pub mod exact;
 pub mod impulse;
 pub mod po;
 pub mod prepared;
+pub mod receivers;
 pub mod regime;
 pub mod spectrum;
 pub mod tables;
@@ -37,6 +38,7 @@ pub mod term;
 pub(crate) use exact::cis_neg;
 pub use exact::{add_leaf, add_leaf_scalar, CHEB_TOL, SMOOTH_TOL};
 pub use prepared::Prepared;
+pub use receivers::{heard_amplitude, heard_leaf_term, heard_terms};
 pub(crate) use regime::{
     first_live_bin, paper_regime, paper_regime_bits, paper_regime_of, PaperRegime, REGIME_KINKED,
     REGIME_ZERO,
@@ -45,5 +47,7 @@ pub use spectrum::{band_spectrum, sum_terms, sum_terms_unwindowed};
 pub use tables::{BandTables, BinOfKp, NodeTables, ANCHOR_BINS, LANES, POLY_BLOCK, POLY_DEG};
 pub use term::{leaf_amp, leaf_term, LeafTerm};
 
+#[cfg(test)]
+mod receivers_tests;
 #[cfg(test)]
 mod tests;

@@ -2,6 +2,7 @@
 //! pre-test for circular-enough beams.
 use crate::math::vec3::{cross, dot, norm, sub, V3};
 use crate::math::vmath::atan2_fast;
+use crate::physics::beam::GaussianBeam;
 use crate::physics::pose::Pose;
 use crate::sonar::{LobeRule, Sonar};
 use multiversion::multiversion;
@@ -32,7 +33,7 @@ fn daz_intervals(azc: f64, h: f64, az0: f64) -> ([(f64, f64); 2], usize) {
 
 /// Relative slack of the conservative node test: bounds are loosened by this much so that
 /// rounding in the bound itself can never prune a counting leaf.
-const SLACK: f64 = 1e-9;
+pub(super) const SLACK: f64 = 1e-9;
 
 /// What the BVH may conclude about a node's box.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,6 +103,92 @@ impl AngularBound {
     }
 }
 
+/// The distances from `p` to the nearest and farthest points of the box `[lo, hi]`,
+/// loosened by [`SLACK`].
+#[inline(always)]
+pub(super) fn box_distances(p: V3, lo: V3, hi: V3) -> (f64, f64) {
+    let (mut d2, mut f2) = (0.0, 0.0);
+    for i in 0..3 {
+        let near = if p[i] < lo[i] {
+            lo[i] - p[i]
+        } else if p[i] > hi[i] {
+            p[i] - hi[i]
+        } else {
+            0.0
+        };
+        let far = (p[i] - lo[i]).abs().max((hi[i] - p[i]).abs());
+        d2 += near * near;
+        f2 += far * far;
+    }
+    (d2.sqrt() * (1.0 - SLACK), f2.sqrt() * (1.0 + SLACK))
+}
+
+/// The box's bounding sphere seen from `p`: the offset `v` of its centre, the distance to it,
+/// and its angular radius `delta`; None when `p` lies inside the sphere.
+#[inline(always)]
+pub(super) fn box_cap(p: V3, lo: V3, hi: V3) -> Option<(V3, f64, f64, f64)> {
+    let c = [
+        (lo[0] + hi[0]) * 0.5,
+        (lo[1] + hi[1]) * 0.5,
+        (lo[2] + hi[2]) * 0.5,
+    ];
+    let rad = norm(sub(hi, lo)) * 0.5 * (1.0 + SLACK);
+    let v = sub(c, p);
+    let dist = norm(v);
+    if !(dist > rad) {
+        return None;
+    }
+    let delta = (rad / dist).asin() + SLACK;
+    Some((v, dist, rad, delta))
+}
+
+/// The (azimuth, elevation) rectangle that holds a cap of angular radius `delta` around the
+/// direction `v` (at distance `dist`, bounding radius `rad`) in the pose's frame: its centre
+/// azimuth `azc`, half width `h` (pi: every azimuth) and elevations `[e_lo, e_hi]`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CapRect {
+    pub(super) azc: f64,
+    pub(super) h: f64,
+    pub(super) e_lo: f64,
+    pub(super) e_hi: f64,
+}
+
+#[inline(always)]
+pub(super) fn cap_rect(pose: &Pose, v: V3, dist: f64, rad: f64, delta: f64) -> CapRect {
+    let vd = dot(v, pose.forward);
+    let vl = dot(v, pose.left);
+    let vu = dot(v, pose.up);
+    let azc = atan2_fast(vl, vd);
+    let hd = (vd * vd + vl * vl).sqrt();
+    let elc = atan2_fast(vu, hd);
+    let (e_lo, e_hi) = ((elc - delta).max(-FRAC_PI_2), (elc + delta).min(FRAC_PI_2));
+    let h = if elc.abs() + delta >= FRAC_PI_2 {
+        PI
+    } else {
+        // sin(delta) <= rad / dist + SLACK (delta = asin(rad / dist) + SLACK), and
+        // cos(elc) = hd / |(vd, vl, vu)|
+        let cos_elc = hd / (hd * hd + vu * vu).sqrt();
+        ((rad / dist + SLACK) / cos_elc).min(1.0).asin() + SLACK
+    };
+    CapRect { azc, h, e_lo, e_hi }
+}
+
+/// The smallest and largest one-way gain of the beam `b` over a cap's rectangle.
+#[inline(always)]
+pub(super) fn gain_range(b: &GaussianBeam, cap: &CapRect) -> (f64, f64) {
+    let (ivs, n) = daz_intervals(cap.azc, cap.h, b.az0);
+    let (mut qmin, mut qmax) = (f64::INFINITY, 0.0f64);
+    for &(a0, a1) in &ivs[..n] {
+        let (y0, y1) = (cap.e_lo - b.el0, cap.e_hi - b.el0);
+        qmin = qmin.min(b.quad_min_over_rect(a0, a1, y0, y1));
+        // a convex quadratic is largest at a corner
+        for (x, y) in [(a0, y0), (a0, y1), (a1, y0), (a1, y1)] {
+            qmax = qmax.max(b.quad(x, y));
+        }
+    }
+    (b.amplitude * (-qmax).exp(), b.amplitude * (-qmin).exp())
+}
+
 /// Conservative test of the box `[lo, hi]` against the lobe of this pose, with an optional
 /// cheap angular pre-test (see [`AngularBound`]). Its `atan2` is [`atan2_fast`] (within ~4e-16
 /// of libm's, far inside [`SLACK`]; with FMA, from the dispatch below, it costs a fraction of
@@ -116,21 +203,7 @@ pub fn test_box(
     hi: V3,
 ) -> BoxTest {
     let p = pose.position;
-    let (mut d2, mut f2) = (0.0, 0.0);
-    for i in 0..3 {
-        let near = if p[i] < lo[i] {
-            lo[i] - p[i]
-        } else if p[i] > hi[i] {
-            p[i] - hi[i]
-        } else {
-            0.0
-        };
-        let far = (p[i] - lo[i]).abs().max((hi[i] - p[i]).abs());
-        d2 += near * near;
-        f2 += far * far;
-    }
-    let rmin = d2.sqrt() * (1.0 - SLACK);
-    let rmax = f2.sqrt() * (1.0 + SLACK);
+    let (rmin, rmax) = box_distances(p, lo, hi);
     if rmin <= sonar.params.min_range * (1.0 + SLACK) {
         return BoxTest::Partial; // may hold a too-close leaf, which must be reported
     }
@@ -139,29 +212,17 @@ pub fn test_box(
     }
     let in_range = rmax < sonar.range_limit;
     // Angular extent: the bounding sphere of the box, seen from the pose.
-    let c = [
-        (lo[0] + hi[0]) * 0.5,
-        (lo[1] + hi[1]) * 0.5,
-        (lo[2] + hi[2]) * 0.5,
-    ];
-    let rad = norm(sub(hi, lo)) * 0.5 * (1.0 + SLACK);
-    let v = sub(c, p);
-    let dist = norm(v);
-    if !(dist > rad) {
+    let Some((v, dist, rad, delta)) = box_cap(p, lo, hi) else {
         return BoxTest::Partial;
-    }
-    let delta = (rad / dist).asin() + SLACK;
+    };
     if let Some(b) = bound {
         if b.rules_out(v, dist, delta, rmin) {
             return BoxTest::Outside;
         }
     }
-    let vd = dot(v, pose.forward);
-    let vl = dot(v, pose.left);
-    let vu = dot(v, pose.up);
     match sonar.params.lobe {
         LobeRule::Cone { half_angle } => {
-            let gamma_c = atan2_fast(norm(cross(v, pose.forward)), vd);
+            let gamma_c = atan2_fast(norm(cross(v, pose.forward)), dot(v, pose.forward));
             if gamma_c - delta > half_angle + SLACK {
                 BoxTest::Outside
             } else if in_range && gamma_c + delta < half_angle - SLACK {
@@ -171,44 +232,20 @@ pub fn test_box(
             }
         }
         LobeRule::Detectable { .. } => {
-            let azc = atan2_fast(vl, vd);
-            let hd = (vd * vd + vl * vl).sqrt();
-            let elc = atan2_fast(vu, hd);
-            let (e_lo, e_hi) = ((elc - delta).max(-FRAC_PI_2), (elc + delta).min(FRAC_PI_2));
-            let h = if elc.abs() + delta >= FRAC_PI_2 {
-                PI
-            } else {
-                // sin(delta) <= rad / dist + SLACK (delta = asin(rad / dist) + SLACK), and
-                // cos(elc) = hd / |(vd, vl, vu)|
-                let cos_elc = hd / (hd * hd + vu * vu).sqrt();
-                ((rad / dist + SLACK) / cos_elc).min(1.0).asin() + SLACK
-            };
+            let cap = cap_rect(pose, v, dist, rad, delta);
             // Largest and smallest one-way gain over the cap's (az, el) rectangle.
-            let gain_range = |b: &crate::physics::beam::GaussianBeam| -> (f64, f64) {
-                let (ivs, n) = daz_intervals(azc, h, b.az0);
-                let (mut qmin, mut qmax) = (f64::INFINITY, 0.0f64);
-                for &(a0, a1) in &ivs[..n] {
-                    let (y0, y1) = (e_lo - b.el0, e_hi - b.el0);
-                    qmin = qmin.min(b.quad_min_over_rect(a0, a1, y0, y1));
-                    // a convex quadratic is largest at a corner
-                    for (x, y) in [(a0, y0), (a0, y1), (a1, y0), (a1, y1)] {
-                        qmax = qmax.max(b.quad(x, y));
-                    }
-                }
-                (b.amplitude * (-qmax).exp(), b.amplitude * (-qmin).exp())
-            };
-            let (gtx_lo, gtx_hi) = gain_range(&sonar.params.emitter);
+            let (gtx_lo, gtx_hi) = gain_range(&sonar.params.emitter, &cap);
             let (g_lo, g_hi) = match &sonar.params.receiver {
                 None => (gtx_lo * gtx_lo, gtx_hi * gtx_hi),
                 Some(rx) => {
-                    let (r_lo, r_hi) = gain_range(rx);
+                    let (r_lo, r_hi) = gain_range(rx, &cap);
                     (gtx_lo * r_lo, gtx_hi * r_hi)
                 }
             };
             if rmin > (sonar.reach_sq_per_gain * g_hi).sqrt() * (1.0 + SLACK) {
                 BoxTest::Outside
             } else if in_range
-                && h < PI
+                && cap.h < PI
                 && rmax < (sonar.reach_sq_per_gain * g_lo).sqrt() * (1.0 - SLACK)
             {
                 BoxTest::Inside

@@ -136,6 +136,7 @@ fn the_parallel_bvh_walk_gives_the_sequential_walks_candidates() {
                 sonar: &sonar,
                 pose,
                 bound: AngularBound::new(&sonar, pose),
+                receivers: None,
                 in_order: true,
             };
             let mut sequential = Candidates::default();

@@ -5,6 +5,8 @@ use crate::lobe::bound::AngularBound;
 use crate::lobe::bound::BoxTest;
 use crate::lobe::candidates::Candidates;
 use crate::lobe::members::Search;
+use crate::lobe::receivers::PlacedReceiver;
+use crate::lobe::receivers_bound::test_box_heard;
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
 use crate::sonar::Sonar;
@@ -25,6 +27,26 @@ const PAR_MIN_LEAVES: u32 = 8192;
 /// levels split into parallel tasks whose candidates are appended in traversal order, so the
 /// result is that of one sequential walk for any number of threads.
 pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose) -> Candidates {
+    walk_candidates(scene, sonar, pose, None)
+}
+
+/// [`bvh_candidates`] for receivers at their own places: every leaf the BVH cannot rule out
+/// for any of `rxs` (see [`test_box_heard`]).
+pub fn bvh_candidates_heard(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    rxs: &[PlacedReceiver],
+) -> Candidates {
+    walk_candidates(scene, sonar, pose, Some(rxs))
+}
+
+fn walk_candidates(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    receivers: Option<&[PlacedReceiver]>,
+) -> Candidates {
     if scene.bvh.nodes.is_empty() {
         return Candidates::default();
     }
@@ -32,7 +54,11 @@ pub fn bvh_candidates(scene: &Scene, sonar: &Sonar, pose: &Pose) -> Candidates {
         scene,
         sonar,
         pose,
-        bound: AngularBound::new(sonar, pose),
+        bound: match receivers {
+            None => AngularBound::new(sonar, pose),
+            Some(_) => None,
+        },
+        receivers,
         // With `node_ranges`, the scene is stored in BVH order (`primitive_indices` is the
         // identity), so a node's leaves are the run of stored indices below it.
         in_order: !scene.node_ranges.is_empty(),
@@ -55,6 +81,20 @@ pub fn candidates(scene: &Scene, sonar: &Sonar, pose: &Pose, search: Search) -> 
     }
 }
 
+/// [`candidates`] for receivers at their own places.
+pub fn candidates_heard(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    rxs: &[PlacedReceiver],
+    search: Search,
+) -> Candidates {
+    match search {
+        Search::Bvh => bvh_candidates_heard(scene, sonar, pose, rxs),
+        Search::BruteForce => Candidates::all(scene.len()),
+    }
+}
+
 /// What the walk does at one node.
 pub(super) enum Step<'a> {
     /// Outside the lobe: nothing below it counts.
@@ -72,6 +112,8 @@ pub(super) struct Walk<'a> {
     pub(super) sonar: &'a Sonar,
     pub(super) pose: &'a Pose,
     pub(super) bound: Option<AngularBound>,
+    /// Receivers at their own places (the union of their lobes), or None: the monostatic lobe.
+    pub(super) receivers: Option<&'a [PlacedReceiver<'a>]>,
     pub(super) in_order: bool,
 }
 
@@ -90,7 +132,11 @@ impl Walk<'_> {
             let a = node.aabb();
             let lo = [a.min.x as f64, a.min.y as f64, a.min.z as f64];
             let hi = [a.max.x as f64, a.max.y as f64, a.max.z as f64];
-            match test_box(self.sonar, self.pose, self.bound.as_ref(), lo, hi) {
+            let test = match self.receivers {
+                None => test_box(self.sonar, self.pose, self.bound.as_ref(), lo, hi),
+                Some(rxs) => test_box_heard(self.sonar, self.pose, rxs, lo, hi),
+            };
+            match test {
                 BoxTest::Outside => return Step::Skip,
                 BoxTest::Partial => false,
                 BoxTest::Inside => true,

@@ -96,6 +96,19 @@ impl Sonar {
             // Re-validate (the struct fields are public).
             GaussianBeam::new(b.amplitude, b.sigma_x, b.sigma_y, b.rotation, b.az0, b.el0)?;
         }
+        if !p.receivers.is_empty() && p.receiver.is_some() {
+            return invalid("give the receiving pattern as receiver or as receivers, not both");
+        }
+        if p.receivers.len() > crate::sonar::MAX_RECEIVERS {
+            return invalid(format!(
+                "at most {} receivers, got {}",
+                crate::sonar::MAX_RECEIVERS,
+                p.receivers.len()
+            ));
+        }
+        for (i, r) in p.receivers.iter().enumerate() {
+            r.validate(i)?;
+        }
         let e = p.emitter;
         GaussianBeam::new(e.amplitude, e.sigma_x, e.sigma_y, e.rotation, e.az0, e.el0)?;
         if let Some(atm) = p.atmosphere {
@@ -233,12 +246,25 @@ impl Sonar {
         self.params.emitter.amplitude * self.receiver().amplitude
     }
 
-    /// The largest range (m) at which any leaf can count.
+    /// The largest range (m) at which any leaf can count: with receivers, the largest delay
+    /// range `(r_tx + r_rx) / 2`, at most `sqrt(K A_tx A_rx + |o|^2 / 4)` for a receiver at
+    /// offset `o` (`r_tx r_rx <= K A_tx A_rx` and `|r_tx - r_rx| <= |o|`).
     pub fn max_reach(&self) -> f64 {
         match self.params.lobe {
-            LobeRule::Detectable { .. } => (self.reach_sq_per_gain * self.peak_gain())
-                .sqrt()
-                .min(self.range_limit),
+            LobeRule::Detectable { .. } if self.params.receivers.is_empty() => {
+                (self.reach_sq_per_gain * self.peak_gain())
+                    .sqrt()
+                    .min(self.range_limit)
+            }
+            LobeRule::Detectable { .. } => {
+                let e = &self.params.emitter;
+                let reach = self.params.receivers.iter().fold(0.0f64, |m, r| {
+                    let a_rx = r.pattern(e).amplitude;
+                    let o = crate::math::vec3::norm(r.offset);
+                    m.max((self.reach_sq_per_gain * e.amplitude * a_rx + o * o / 4.0).sqrt())
+                });
+                reach.min(self.range_limit)
+            }
             LobeRule::Cone { .. } => self.range_limit,
         }
     }

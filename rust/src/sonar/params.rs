@@ -2,6 +2,7 @@
 use crate::error::Result;
 use crate::physics::absorption::Atmosphere;
 use crate::physics::beam::GaussianBeam;
+use crate::sonar::receivers::Receiver;
 
 /// Which leaves count (docs/model.md §3).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,6 +48,9 @@ pub struct SonarParams {
     pub emitter: GaussianBeam,
     /// `None`: the receiver uses the emitter's pattern (two-way gain `S^2`).
     pub receiver: Option<GaussianBeam>,
+    /// Receivers of their own places and patterns (docs/model.md §5a); empty: the echo is
+    /// heard at the emitter (monostatic), and results have no receiver axis.
+    pub receivers: Vec<Receiver>,
     pub lobe: LobeRule,
     /// Extra range limit (m); leaves are always limited to the record's range as well.
     pub max_range: Option<f64>,
@@ -72,6 +76,7 @@ impl SonarParams {
         Ok(SonarParams {
             emitter: GaussianBeam::circular(beamwidth)?,
             receiver: None,
+            receivers: Vec::new(),
             lobe: LobeRule::Detectable {
                 threshold_db: 20.0,
                 r0: 0.1,

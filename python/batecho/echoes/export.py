@@ -1,0 +1,252 @@
+"""Echoes as files other tools open: an xarray Dataset (named dimensions, units, the sonar as
+attributes), a WAV file to listen to (time-expanded, one channel per receiver) and a MATLAB
+MAT file.
+
+Every export has a receiver dimension: the receivers of ``Sonar(receivers=...)``, or one
+receiver at the emitter (``"emitter"``) for a sonar without them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._core import __version__
+from ..sonar.record import sonar_params
+
+if TYPE_CHECKING:
+    from ..sonar.call import Call
+
+__all__ = ["to_mat", "to_wav", "to_xarray", "with_receiver_axis", "write_wav"]
+
+
+def with_receiver_axis(echoes: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(spectrum (p, R, M), impulse (p, R, n), n_leaves (p, R))``: a sonar without receivers
+    of its own gets a receiver axis of length 1."""
+    if echoes.n_receivers:
+        return echoes.spectrum, echoes.impulse, echoes.n_leaves
+    return echoes.spectrum[:, None], echoes.impulse[:, None], echoes.n_leaves[:, None]
+
+
+def _receiver_table(echoes: Any) -> tuple[list[str], np.ndarray]:
+    """Receiver names and offsets (R, 3) (m, in the sonar's frame)."""
+    rxs = echoes.sonar.receivers
+    if not rxs:
+        return ["emitter"], np.zeros((1, 3))
+    names = ["left", "right"] if len(rxs) == 2 and _is_binaural(echoes) else None
+    names = names or [f"receiver {j}" for j in range(len(rxs))]
+    offsets = np.array([r.offset_m for r in rxs], dtype=np.float64)
+    if echoes.receiver is not None:  # one receiver's echoes
+        return [names[echoes.receiver]], offsets[echoes.receiver : echoes.receiver + 1]
+    return names, offsets
+
+
+def _is_binaural(echoes: Any) -> bool:
+    rxs = echoes.sonar.receivers
+    assert rxs is not None
+    return rxs[0].offset_m[1] > 0 > rxs[1].offset_m[1]
+
+
+def _scalar_attrs(echoes: Any) -> dict[str, Any]:
+    s = echoes.sonar
+    return {
+        "fs_hz": float(s.fs),
+        "n_samples": int(s.n_samples),
+        "band_hz": [float(x) for x in s.band_hz],
+        "sound_speed_m_per_s": float(s.sound_speed),
+        "leaf_model": s.leaf_model,
+        "lobe": s.lobe,
+        "window": s.window,
+        "gain": float(s.gain),
+        "spreading": int(bool(s.spreading)),
+        "sonar_json": json.dumps(sonar_params(s), sort_keys=True),
+        "batecho_version": __version__,
+    }
+
+
+def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None = None):
+    """The echoes as an ``xarray.Dataset`` (needs the ``xarray`` extra: ``pip install
+    batecho[xarray]``).
+
+    Dimensions ``pose``, ``receiver``, ``time``, ``frequency`` and ``xyz``. Variables:
+    ``impulse`` (pose, receiver, time), ``spectrum`` (pose, receiver, frequency, complex),
+    ``n_leaves`` (pose, receiver), the poses' ``position``, ``forward``, ``up``, ``left``
+    (pose, xyz). Coordinates: ``time`` (s), ``frequency`` (Hz), ``range`` along time (m,
+    ``v t / 2``), the receivers' names and ``receiver_offset`` (receiver, xyz; m, in the
+    sonar's frame). Attributes: the sonar's parameters (``sonar_json`` holds every one).
+
+    With ``call``, also ``received`` (pose, receiver, time): what the receivers record (given
+    as ``received``, or :meth:`Echoes.received` without noise), and the call's ``call``
+    samples along ``call_time`` (s).
+    """
+    try:
+        import xarray as xr
+    except ImportError:  # pragma: no cover - the extra is installed in the tests
+        raise ImportError("Echoes.to_xarray needs xarray: pip install 'batecho[xarray]'") from None
+    spec, imp, counts = with_receiver_axis(echoes)
+    names, offsets = _receiver_table(echoes)
+    poses = echoes.poses
+    xyz = ("pose", "xyz")
+    ds = xr.Dataset(
+        data_vars={
+            "impulse": (
+                ("pose", "receiver", "time"),
+                imp,
+                {"units": "1", "long_name": "impulse response 2 irfft(Y, n)"},
+            ),
+            "spectrum": (
+                ("pose", "receiver", "frequency"),
+                spec,
+                {"units": "1", "long_name": "windowed band spectrum Y_k"},
+            ),
+            "n_leaves": (
+                ("pose", "receiver"),
+                counts,
+                {"units": "1", "long_name": "leaves that counted"},
+            ),
+            "position": (xyz, poses.positions, {"units": "m"}),
+            "forward": (xyz, poses.forward, {"units": "1"}),
+            "up": (xyz, poses.up, {"units": "1"}),
+            "left": (xyz, poses.left, {"units": "1"}),
+        },
+        coords={
+            "pose": ("pose", np.arange(len(poses))),
+            "receiver": ("receiver", np.array(names, dtype=object)),
+            "time": ("time", echoes.times, {"units": "s"}),
+            "range": ("time", echoes.ranges, {"units": "m", "long_name": "range v t / 2"}),
+            "frequency": ("frequency", echoes.freqs, {"units": "Hz"}),
+            "xyz": ("xyz", np.array(["x", "y", "z"], dtype=object)),
+            "receiver_offset": (
+                ("receiver", "xyz"),
+                offsets,
+                {"units": "m", "long_name": "offset (forward, left, up) in the sonar's frame"},
+            ),
+        },
+        attrs=_scalar_attrs(echoes),
+    )
+    if call is not None:
+        rec = _received(echoes, call, received)
+        ds["received"] = (
+            ("pose", "receiver", "time"),
+            rec,
+            {"units": "1", "long_name": "the impulse response convolved with the call"},
+        )
+        ds["call"] = ("call_time", call.samples, {"units": "1", "long_name": call.name})
+        ds = ds.assign_coords(call_time=("call_time", call.times, {"units": "s"}))
+    return ds
+
+
+def _received(echoes: Any, call: Call, received: np.ndarray | None) -> np.ndarray:
+    """What the receivers record, with a receiver axis."""
+    rec = echoes.received(call) if received is None else np.asarray(received)
+    return rec if echoes.n_receivers else rec[:, None]
+
+
+def _pcm16(x: np.ndarray) -> np.ndarray:
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if peak == 0.0:
+        return np.zeros(x.shape, dtype=np.int16)
+    return np.round(x / peak * 32767.0 * 0.99).astype(np.int16)
+
+
+def to_wav(
+    echoes: Any,
+    path: str | os.PathLike,
+    time_expansion: float = 10.0,
+    receiver: int | None = None,
+    call: Call | None = None,
+    noise_rms: float = 0.0,
+    rng: Any = None,
+) -> Path:
+    """Write the echoes as a 16-bit WAV file to listen to, as bat researchers do: the poses'
+    records one after another, slowed down ``time_expansion`` times (the file's rate is
+    ``fs / time_expansion``, rounded to the hertz), normalised to 99 % of full scale. One
+    channel per receiver (stereo for two ears, the left first), or the one ``receiver``.
+
+    Without ``call`` the impulse responses are written; with it, what the receivers record
+    (:meth:`Echoes.received`, with ``noise_rms`` and ``rng``).
+    """
+    x = echoes.received(call, noise_rms, rng) if call is not None else echoes.impulse
+    x = x if echoes.n_receivers else x[:, None]
+    if receiver is not None:
+        r = _receiver_index(receiver, x.shape[1])
+        x = x[:, r : r + 1]
+    return write_wav(path, x, echoes.sonar.fs, time_expansion)
+
+
+def write_wav(path: str | os.PathLike, x: np.ndarray, fs: float, time_expansion: float) -> Path:
+    """Write ``x`` (pose, receiver, time) as a 16-bit WAV file: the poses one after another,
+    one channel per receiver, at the rate ``fs / time_expansion`` (rounded to the hertz),
+    normalised to 99 % of full scale."""
+    from scipy.io import wavfile
+
+    from .._validate import positive_scalar
+
+    te = positive_scalar(time_expansion, "time_expansion")
+    rate = round(fs / te)
+    if not 1 <= rate <= 2**31 - 1:
+        raise ValueError(f"fs / time_expansion = {fs / te:g} Hz is not a WAV rate")
+    # (pose, receiver, time) -> (pose time, receiver)
+    frames = np.ascontiguousarray(np.transpose(x, (0, 2, 1)).reshape(-1, x.shape[1]))
+    data = _pcm16(frames)
+    p = Path(path)
+    wavfile.write(p, rate, data[:, 0] if data.shape[1] == 1 else data)
+    return p
+
+
+def _receiver_index(receiver: Any, n: int) -> int:
+    if isinstance(receiver, bool) or not isinstance(receiver, (int, np.integer)):
+        raise TypeError(f"receiver must be an int index or None, got {receiver!r}")
+    if not 0 <= receiver < n:
+        raise ValueError(f"receiver {receiver} out of range: the echoes have {n} receivers")
+    return int(receiver)
+
+
+def to_mat(
+    echoes: Any,
+    path: str | os.PathLike,
+    call: Call | None = None,
+    received: np.ndarray | None = None,
+) -> Path:
+    """Write the echoes as a MATLAB MAT file (``scipy.io.savemat``, format 5): ``impulse``
+    (pose, receiver, time), ``spectrum`` (pose, receiver, frequency), ``n_leaves``, ``times``
+    (s), ``freqs`` (Hz), ``positions``, ``forward``, ``up``, ``left`` (pose, 3),
+    ``receiver_offsets`` (receiver, 3; m), ``receiver_names``, ``fs``, ``sound_speed``,
+    ``sonar_json`` and ``batecho_version``; with ``call``, ``received`` (pose, receiver,
+    time: given, or :meth:`Echoes.received` without noise) and the ``call`` samples."""
+    from scipy.io import savemat
+
+    spec, imp, counts = with_receiver_axis(echoes)
+    names, offsets = _receiver_table(echoes)
+    poses = echoes.poses
+    p = Path(path)
+    extra: dict[str, Any] = {}
+    if call is not None:
+        extra = {"received": _received(echoes, call, received), "call": call.samples}
+    savemat(
+        p,
+        extra
+        | {
+            "impulse": imp,
+            "spectrum": spec,
+            "n_leaves": counts.astype(np.float64),
+            "times": echoes.times,
+            "freqs": echoes.freqs,
+            "positions": poses.positions,
+            "forward": poses.forward,
+            "up": poses.up,
+            "left": poses.left,
+            "receiver_offsets": offsets,
+            "receiver_names": np.array(names, dtype=object),
+            "fs": float(echoes.sonar.fs),
+            "sound_speed": float(echoes.sonar.sound_speed),
+            "sonar_json": json.dumps(sonar_params(echoes.sonar), sort_keys=True),
+            "batecho_version": __version__,
+        },
+        do_compression=True,
+    )
+    return p

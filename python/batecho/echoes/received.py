@@ -1,0 +1,66 @@
+"""What a receiver records (docs/model.md §5b): the impulse response convolved with the emitted
+call (by FFT), truncated to the record, plus white Gaussian noise; and the matched filter's
+pulse-compressed output."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._random import generator
+from .._validate import positive_scalar
+from ..sonar.call import Call
+
+
+def _check_call(call: Any, fs: float) -> Call:
+    if not isinstance(call, Call):
+        raise TypeError(f"call must be a batecho.Call, got {type(call).__name__}")
+    if abs(call.fs - fs) > 1e-9 * fs:
+        raise ValueError(
+            f"the call is sampled at {call.fs:g} Hz but the echoes at fs = {fs:g} Hz; "
+            "make the call at the sonar's fs"
+        )
+    return call
+
+
+def received(
+    impulse: np.ndarray, fs: float, call: Call, noise_rms: float = 0.0, rng: Any = None
+) -> np.ndarray:
+    """``impulse`` (..., n) convolved with ``call`` along the last axis (by FFT,
+    ``scipy.signal.oaconvolve``), the first ``n`` samples kept, plus white Gaussian noise of
+    rms ``noise_rms`` drawn from ``rng`` (a Generator, an int seed or None)."""
+    from scipy.signal import oaconvolve
+
+    call = _check_call(call, fs)
+    sigma = positive_scalar(noise_rms, "noise_rms", allow_zero=True)
+    h = np.asarray(impulse, dtype=np.float64)
+    n = h.shape[-1]
+    c = call.samples.reshape((1,) * (h.ndim - 1) + (-1,))
+    y = np.asarray(oaconvolve(h, c, axes=-1)[..., :n], dtype=np.float64)
+    if sigma > 0.0:
+        y = y + generator(rng).normal(0.0, sigma, size=y.shape)
+    return y
+
+
+def matched_filter(x: np.ndarray, call: Call) -> np.ndarray:
+    """The matched filter of ``call`` applied to ``x`` (..., n): the cross-correlation
+    ``z[t] = sum_tau x[t + tau] c[tau] / sum c^2``, so that an echo of the call arriving at
+    ``t0`` peaks at ``t0`` with the echo's impulse amplitude (by FFT)."""
+    from scipy.signal import oaconvolve
+
+    c = call.samples
+    n, m = x.shape[-1], c.size
+    k = c[::-1].reshape((1,) * (x.ndim - 1) + (-1,))
+    z = oaconvolve(x, k, axes=-1)[..., m - 1 : m - 1 + n]
+    return np.asarray(z, dtype=np.float64) / call.energy
+
+
+def compressed(
+    impulse: np.ndarray, fs: float, call: Call, noise_rms: float = 0.0, rng: Any = None
+) -> np.ndarray:
+    """The pulse-compressed output: :func:`matched_filter` of :func:`received`."""
+    return matched_filter(received(impulse, fs, call, noise_rms, rng), call)
+
+
+__all__ = ["compressed", "matched_filter", "received"]

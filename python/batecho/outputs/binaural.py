@@ -1,0 +1,122 @@
+"""Figures of two receivers' echoes: the two ears' impulse responses and echo images side by
+side, and the interaural level and time differences along a flight. Every function returns
+the Figure; nothing is shown."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..echoes.binaural import interaural_level_difference, interaural_time_difference
+from .plots import _db, _edges, _plt, plot_impulse
+
+__all__ = ["plot_binaural_echo_images", "plot_binaural_impulses", "plot_interaural_differences"]
+
+
+def _ear_names(echoes) -> list[str]:
+    from ..echoes.export import _receiver_table
+
+    return _receiver_table(echoes)[0]
+
+
+def _check(echoes) -> None:
+    if echoes.n_receivers < 2:
+        raise ValueError(
+            f"two-ear figures need echoes with two receivers or more, got {echoes.n_receivers} "
+            "(Sonar.binaural)"
+        )
+
+
+def plot_binaural_impulses(echoes, index: int = 0, max_range_m: float | None = None):
+    """The impulse responses of pose ``index`` at each receiver, side by side, on one
+    amplitude scale."""
+    _check(echoes)
+    plt = _plt()
+    r = echoes.n_receivers
+    fig, axes = plt.subplots(1, r, figsize=(5 * r, 3.4), sharey=True, constrained_layout=True)
+    names = _ear_names(echoes)
+    for j, ax in enumerate(axes):
+        e = echoes.for_receiver(j)
+        n = int(e.n_leaves[index])
+        plot_impulse(
+            e,
+            index,
+            ax=ax,
+            max_range_m=max_range_m,
+            title=f"{names[j]} ear, pose {index}: {n} leaves",
+        )
+    return fig
+
+
+def plot_binaural_echo_images(
+    echoes,
+    x: Any = None,
+    xlabel: str | None = None,
+    max_range_m: float | None = None,
+    dynamic_range_db: float = 60.0,
+):
+    """The echo images (envelope in dB, pulses by range) of each receiver side by side, all in
+    dB re the largest envelope of any receiver, so that the ears' levels compare."""
+    _check(echoes)
+    plt = _plt()
+    r, p = echoes.n_receivers, len(echoes)
+    xs = np.arange(p, dtype=np.float64) if x is None else np.asarray(x, dtype=np.float64)
+    if xs.shape != (p,):
+        raise ValueError(f"x must have one value per pulse ({p}), got shape {xs.shape}")
+    order = np.argsort(xs, kind="stable")
+    if p > 1 and not np.all(np.diff(xs[order]) > 0):
+        raise ValueError("x must have distinct values")
+    env = echoes.envelope()
+    db = _db(env, float(env.max()))
+    rng = echoes.ranges
+    keep = rng <= (rng[-1] if max_range_m is None else float(max_range_m))
+    r_edges = _edges(rng[keep])
+    r_edges[0] = max(r_edges[0], 0.0)
+    fig, axes = plt.subplots(1, r, figsize=(5.5 * r, 4), sharey=True, constrained_layout=True)
+    names = _ear_names(echoes)
+    im = None
+    for j, ax in enumerate(axes):
+        img = np.where(np.isfinite(db[:, j]), db[:, j], -np.inf)[order][:, keep].T
+        im = ax.pcolormesh(
+            _edges(xs[order]),
+            r_edges,
+            np.ma.masked_invalid(np.maximum(img, -dynamic_range_db - 1.0)),
+            vmin=-dynamic_range_db,
+            vmax=0,
+            cmap="magma",
+            shading="flat",
+            rasterized=True,
+        )
+        ax.set_facecolor("black")
+        ax.set_xlabel(xlabel or ("pulse" if x is None else "x"))
+        ax.set_title(f"{names[j]} ear", fontsize=10)
+    axes[0].set_ylabel("range (m)")
+    axes[0].set_ylim(0, rng[keep][-1])
+    fig.colorbar(im, ax=list(axes), label="envelope (dB re the largest of all ears)")
+    return fig
+
+
+def plot_interaural_differences(
+    echoes, x: Any = None, xlabel: str | None = None, max_range_m: float | None = None
+):
+    """The interaural level difference (dB, left minus right) and time difference (µs,
+    positive when the left ear hears first) of each pulse along the flight."""
+    _check(echoes)
+    plt = _plt()
+    p = len(echoes)
+    xs = np.arange(p, dtype=np.float64) if x is None else np.asarray(x, dtype=np.float64)
+    if xs.shape != (p,):
+        raise ValueError(f"x must have one value per pulse ({p}), got shape {xs.shape}")
+    ild = interaural_level_difference(echoes, max_range_m=max_range_m)
+    itd = interaural_time_difference(echoes, max_range_m=max_range_m)
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True, constrained_layout=True)
+    a1.plot(xs, ild, "o-", ms=3, lw=1)
+    a1.axhline(0.0, color="0.6", lw=0.8)
+    a1.set_ylabel("ILD (dB, left - right)")
+    a2.plot(xs, itd * 1e6, "o-", ms=3, lw=1, color="tab:red")
+    a2.axhline(0.0, color="0.6", lw=0.8)
+    a2.set_ylabel("ITD (µs, right - left)")
+    a2.set_xlabel(xlabel or ("pulse" if x is None else "x"))
+    a1.set_title("Interaural differences along the flight", fontsize=10)
+    return fig

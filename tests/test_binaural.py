@@ -1,0 +1,84 @@
+"""Interaural cues and the two-ear figures: a single leaf's interaural time difference is its
+path difference over the speed of sound, the level difference favours the ear it lies toward,
+and the figures draw one panel per ear."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from _helpers import frame_points
+
+import batecho
+from batecho import Leaves, Poses, Sonar
+from batecho.echoes.binaural import interaural_level_difference, interaural_time_difference
+
+
+@pytest.fixture(scope="module")
+def sweep():
+    """A clump of leaves 4 m ahead; the sonar's heading turns from -20 to +20 degrees."""
+    rng = np.random.default_rng(0)
+    c = np.array([4.0, 0.0, 0.0]) + rng.normal(scale=0.3, size=(200, 3))
+    leaves = Leaves(c, rng.normal(size=(200, 3)), np.full(200, 0.02))
+    yaw = np.radians(np.linspace(-20.0, 20.0, 5))
+    poses = Poses(np.zeros((5, 3)), np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros(5)]))
+    sonar = Sonar.binaural(0.02, 30.0, beamwidth_deg=40.0)
+    return batecho.simulate(leaves, sonar, poses), np.degrees(yaw)
+
+
+@pytest.mark.parametrize("az_deg", [-25.0, 15.0])
+def test_a_single_leafs_interaural_time_difference_is_its_path_difference(az_deg):
+    pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    sonar = Sonar.binaural(0.3, 20.0, window="rect", lobe="cone", cone_half_angle_deg=60.0)
+    c = frame_points(pose, [3.0], [math.radians(az_deg)], [0.0])
+    e = batecho.simulate(Leaves(c, [-c[0] / 3.0], [0.02]), sonar, pose)
+    r = [np.linalg.norm(c[0] - np.array(rx.offset_m)) for rx in sonar.receivers]
+    itd = interaural_time_difference(e)[0]
+    assert abs(itd - (r[1] - r[0]) / sonar.sound_speed) <= 1.0 / sonar.fs
+    assert np.sign(interaural_level_difference(e)[0]) == np.sign(az_deg)
+
+
+def test_the_level_difference_follows_the_heading(sweep):
+    e, _ = sweep
+    ild = interaural_level_difference(e)
+    # turned right (negative heading), the clump lies to the left: the left ear is louder
+    assert np.all(np.diff(ild) < 0) and ild[0] > 3.0 and ild[-1] < -3.0
+
+
+def test_interaural_differences_need_two_receivers():
+    leaves = Leaves([[2.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    e = batecho.simulate(leaves, Sonar(), Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]))
+    with pytest.raises(ValueError, match="two receivers"):
+        interaural_level_difference(e)
+
+
+def test_the_two_ear_figures_have_a_panel_per_ear(sweep):
+    import matplotlib.pyplot as plt
+
+    from batecho.outputs.binaural import (
+        plot_binaural_echo_images,
+        plot_binaural_impulses,
+        plot_interaural_differences,
+    )
+
+    e, heading = sweep
+    fig = plot_binaural_impulses(e, 3, max_range_m=6.0)
+    assert [ax.get_title().split(" ear")[0] for ax in fig.axes[:2]] == ["left", "right"]
+    fig2 = plot_binaural_echo_images(e, x=heading, xlabel="heading (deg)")
+    assert len(fig2.axes) == 3  # two images and their shared colour bar
+    fig3 = plot_interaural_differences(e, x=heading, xlabel="heading (deg)")
+    assert fig3.axes[1].get_xlabel() == "heading (deg)"
+    for f in (fig, fig2, fig3):
+        plt.close(f)
+
+
+def test_one_receivers_echoes_are_the_slice_of_its_axis(sweep):
+    e, _ = sweep
+    right = e.for_receiver(1)
+    assert right.n_receivers == 0 and right.receiver == 1
+    assert np.array_equal(right.impulse, e.impulse[:, 1])
+    ds = right.to_xarray()
+    assert list(ds["receiver"].values) == ["right"]
+    with pytest.raises(ValueError, match="out of range"):
+        e.for_receiver(2)

@@ -1,0 +1,196 @@
+"""The emitted call, what a receiver records and the exports (docs/model.md §5b): the FFT
+convolution equals numpy.convolve, the noise is seeded with the asked rms, the matched filter
+peaks at the echo's delay, and the WAV, MAT and xarray files read back what was written."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import batecho
+from batecho import Call, Leaves, Poses, Sonar
+
+
+@pytest.fixture(scope="module")
+def two_ears():
+    from batecho.echoes.canonical import canonical_leaf_box
+
+    leaves = canonical_leaf_box(np.random.default_rng(4), density_per_m3=3.0)
+    poses = Poses([[0.0, 0.0, 0.0], [0.3, 0.1, 0.0]], [[1.0, 0.0, 0.0], [1.0, 0.1, 0.0]])
+    return batecho.simulate(leaves, Sonar.binaural(0.02, 30.0), poses)
+
+
+@pytest.fixture(scope="module")
+def one_ear():
+    leaves = Leaves([[2.0, 0.1, 0.0], [3.5, -0.2, 0.1]], [[1, 0, 0], [1, 0.2, 0]], [0.02, 0.03])
+    return batecho.simulate(leaves, Sonar(), Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]))
+
+
+CALLS = {
+    "linear_fm": lambda: Call.linear_fm(80e3, 60e3, 2e-3),
+    "hyperbolic_fm": lambda: Call.hyperbolic_fm(90e3, 45e3, 3e-3, window="blackman"),
+    "cf_fm": lambda: Call.cf_fm(75e3, 20e-3, 62e3, 4e-3),
+    "custom": lambda: Call(np.random.default_rng(1).normal(size=301), 400e3),
+}
+
+
+@pytest.mark.parametrize("kind", CALLS)
+def test_received_equals_numpy_convolve_without_noise(two_ears, kind):
+    call = CALLS[kind]()
+    got = two_ears.received(call)
+    n = two_ears.impulse.shape[-1]
+    want = np.array([[np.convolve(h, call.samples)[:n] for h in pose] for pose in two_ears.impulse])
+    assert got.shape == two_ears.impulse.shape
+    assert np.max(np.abs(got - want)) <= 1e-10 * np.max(np.abs(want))
+
+
+def test_the_noise_is_seeded_and_has_the_asked_rms(one_ear):
+    call = CALLS["linear_fm"]()
+    clean = one_ear.received(call)
+    a = one_ear.received(call, noise_rms=0.01, rng=5)
+    b = one_ear.received(call, noise_rms=0.01, rng=5)
+    c = one_ear.received(call, noise_rms=0.01, rng=6)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    noise = a - clean
+    # 24 000 samples: the sample rms is within 3 % of sigma (about 7 standard errors)
+    assert abs(np.sqrt(np.mean(noise**2)) - 0.01) < 3e-4
+    assert abs(np.mean(noise)) < 3e-4
+    gen = np.random.default_rng(9)
+    assert np.array_equal(
+        one_ear.received(call, 0.01, gen), one_ear.received(call, 0.01, np.random.default_rng(9))
+    )
+
+
+def test_the_matched_filter_peaks_at_a_single_leafs_delay():
+    pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    leaf = Leaves([[3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    e = batecho.simulate(leaf, Sonar(), pose)
+    z = e.compressed(Call.linear_fm(85e3, 55e3, 2e-3))
+    from scipy.signal import hilbert
+
+    t = e.times[int(np.argmax(np.abs(hilbert(z[0]))))]
+    assert abs(t - 2 * 3.0 / e.sonar.sound_speed) <= 2.0 / e.sonar.fs
+
+
+def test_a_call_at_another_rate_is_refused(one_ear):
+    with pytest.raises(ValueError, match="sampled at 250000 Hz"):
+        one_ear.received(Call.linear_fm(80e3, 60e3, 2e-3, fs=250e3))
+    with pytest.raises(TypeError, match="batecho.Call"):
+        one_ear.received(np.ones(10))
+    with pytest.raises(ValueError, match="noise_rms"):
+        one_ear.received(CALLS["linear_fm"](), noise_rms=-1.0)
+
+
+@given(
+    st.floats(20e3, 150e3),
+    st.floats(20e3, 150e3),
+    st.floats(2e-4, 1e-2),
+    st.sampled_from(["hann", "hamming", "blackman", "tukey", "rect"]),
+)
+@settings(max_examples=30)
+def test_sweeps_have_their_duration_and_stay_within_the_window(f0, f1, duration, window):
+    for make in (Call.linear_fm, Call.hyperbolic_fm):
+        c = make(f0, f1, duration, window=window)
+        assert len(c) == round(duration * 400e3)
+        assert np.all(np.abs(c.samples) <= 1.0) and not c.samples.flags.writeable
+
+
+def test_a_linear_sweep_runs_between_its_frequencies():
+    c = Call.linear_fm(80e3, 40e3, 5e-3, window="rect")
+    from scipy.signal import hilbert
+
+    phase = np.unwrap(np.angle(hilbert(c.samples)))
+    f = np.diff(phase) / (2 * np.pi) * c.fs
+    mid = f[len(f) // 10 : -len(f) // 10]
+    assert 40e3 < mid.min() < 50e3 and 70e3 < mid.max() < 80e3
+    assert np.all(np.diff(mid[::50]) < 0)
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: Call.linear_fm(80e3, 250e3, 1e-3), "Nyquist"),
+        (lambda: Call.linear_fm(80e3, 60e3, 1e-9), "samples"),
+        (lambda: Call.cf_fm(80e3, 1e-3, 60e3, 2e-3), "fm_duration_s"),
+        (lambda: Call.linear_fm(80e3, 60e3, 1e-3, window="kaiser"), "window"),
+        (lambda: Call([1.0, np.nan], 400e3), "finite"),
+        (lambda: Call(np.ones((2, 2)), 400e3), "1-D"),
+        (lambda: Call([1.0, 2.0], -1.0), "fs"),
+    ],
+)
+def test_bad_calls_are_refused_by_name(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+def test_the_wav_file_is_stereo_for_two_ears_time_expanded_and_normalised(two_ears, tmp_path):
+    from scipy.io import wavfile
+
+    path = two_ears.to_wav(tmp_path / "ears.wav", time_expansion=10)
+    rate, data = wavfile.read(path)
+    assert rate == 40_000
+    assert data.shape == (2 * two_ears.impulse.shape[-1], 2) and data.dtype == np.int16
+    assert np.abs(data).max() == round(32767 * 0.99)
+    # read back: the poses one after another, each channel one ear
+    x = np.transpose(two_ears.impulse, (0, 2, 1)).reshape(-1, 2)
+    scale = np.abs(x).max() / (32767 * 0.99)
+    assert np.max(np.abs(data * scale - x)) <= scale
+    rate, mono = wavfile.read(two_ears.to_wav(tmp_path / "right.wav", 20, receiver=1))
+    assert rate == 20_000 and mono.ndim == 1
+    right = x[:, 1]
+    scale = np.abs(right).max() / (32767 * 0.99)  # normalised on its own
+    assert np.max(np.abs(mono * scale - right)) <= scale
+
+
+def test_the_wav_file_of_the_received_call_is_seeded(two_ears, tmp_path):
+    from scipy.io import wavfile
+
+    call = CALLS["linear_fm"]()
+    a = wavfile.read(two_ears.to_wav(tmp_path / "a.wav", call=call, noise_rms=1e-7, rng=1))[1]
+    b = wavfile.read(two_ears.to_wav(tmp_path / "b.wav", call=call, noise_rms=1e-7, rng=1))[1]
+    assert np.array_equal(a, b) and a.shape[1] == 2
+    with pytest.raises(ValueError, match="receiver 2 out of range"):
+        two_ears.to_wav(tmp_path / "c.wav", receiver=2)
+
+
+def test_the_mat_file_round_trips(two_ears, tmp_path):
+    from scipy.io import loadmat
+
+    m = loadmat(two_ears.to_mat(tmp_path / "echoes.mat"))
+    assert np.array_equal(m["impulse"], two_ears.impulse)
+    assert np.array_equal(m["spectrum"], two_ears.spectrum)
+    assert np.array_equal(m["n_leaves"], two_ears.n_leaves)
+    assert np.array_equal(m["times"].ravel(), two_ears.times)
+    assert np.array_equal(m["positions"], two_ears.poses.positions)
+    assert m["receiver_offsets"].tolist() == [[0.0, 0.01, 0.0], [0.0, -0.01, 0.0]]
+    assert json.loads(str(m["sonar_json"][0]))["receivers"][0]["offset_m"] == [0.0, 0.01, 0.0]
+
+
+def test_the_xarray_dataset_round_trips_through_zarr(two_ears, tmp_path):
+    import xarray as xr
+
+    ds = two_ears.to_xarray()
+    assert ds["impulse"].dims == ("pose", "receiver", "time")
+    assert ds["spectrum"].dims == ("pose", "receiver", "frequency")
+    assert list(ds["receiver"].values) == ["left", "right"]
+    assert ds["time"].attrs["units"] == "s" and ds["frequency"].attrs["units"] == "Hz"
+    assert ds.attrs["fs_hz"] == 400e3
+    ds.to_zarr(tmp_path / "echoes.zarr", consolidated=False)
+    back = xr.open_zarr(tmp_path / "echoes.zarr", consolidated=False).load()
+    assert np.array_equal(back["impulse"].values, two_ears.impulse)
+    assert np.array_equal(back["spectrum"].values, two_ears.spectrum)
+    assert json.loads(back.attrs["sonar_json"]) == json.loads(ds.attrs["sonar_json"])
+
+
+def test_exports_without_receivers_have_one_receiver_at_the_emitter(one_ear, tmp_path):
+    from scipy.io import loadmat, wavfile
+
+    ds = one_ear.to_xarray()
+    assert ds.sizes["receiver"] == 1 and list(ds["receiver"].values) == ["emitter"]
+    assert np.array_equal(ds["impulse"].values[:, 0], one_ear.impulse)
+    assert loadmat(one_ear.to_mat(tmp_path / "e.mat"))["impulse"].shape == (1, 1, 24000)
+    assert wavfile.read(one_ear.to_wav(tmp_path / "e.wav"))[1].ndim == 1
