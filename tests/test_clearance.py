@@ -9,12 +9,12 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import batecho
 from batecho import ClearanceWarning, reference
-from batecho.forest.clearance import bark_clearance, point_triangle_distances
+from batecho.forest.clearance import BarkGrid, bark_clearance, point_triangle_distances
 
 
 def unit_rows(v: np.ndarray) -> np.ndarray:
@@ -351,3 +351,74 @@ def test_simulate_warns_of_a_pose_close_to_a_trunk_naming_the_branch():
     pose = batecho.Poses([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]])
     with pytest.warns(ClearanceWarning, match=r"pose 0 .* from branch 0"):
         batecho.simulate(scene, batecho.Sonar(too_close="skip"), pose)
+
+
+# -- the bark grid --------------------------------------------------------------------------
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([0.05, 0.3, 1.0, 5.0]))
+def test_the_bark_grid_finds_the_brute_force_nearest_triangle(seed, cell_m):
+    rng = np.random.default_rng(seed)
+    corners = rng.uniform(-3, 3, (80, 1, 3))
+    tri = corners + rng.normal(0.0, rng.choice([0.02, 0.3, 2.0]), (80, 3, 3))
+    v, f = tri.reshape(-1, 3), np.arange(240).reshape(80, 3)
+    pts = rng.uniform(-5, 5, (30, 3))
+    grid = BarkGrid(v, f, cell_m=cell_m)
+    d, i = bark_clearance(None, None, pts, grid=grid)
+    brute = np.array([point_triangle_distances(p, tri) for p in pts])
+    np.testing.assert_array_equal(d, brute.min(axis=1))
+    np.testing.assert_array_equal(i, brute.argmin(axis=1))
+    upper = float(np.median(brute.min(axis=1)))
+    near = brute.min() if brute.min() <= upper else np.inf
+    assert grid.set_clearance(pts, upper) == near
+
+
+def test_the_bark_grid_leaves_triangles_beyond_the_bound_unsearched():
+    v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    grid = BarkGrid(v, [[0, 1, 2]])
+    assert grid.nearest(np.array([0.0, 0.0, 5.0]), 1.0) == (np.inf, -1)
+    assert grid.set_clearance(np.array([[0.0, 0.0, 5.0]]), 1.0) == np.inf
+    assert grid.nearest(np.array([0.2, 0.2, 5.0]), 6.0) == (5.0, 0)
+
+
+# -- flights ---------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def pass_by(forest):
+    """A flight that passes a tree's trunk 0.6 m from its axis, at 2 m, sampled every 10 ms."""
+    from batecho.flight import Line
+
+    base = forest.trunk_bases[0]
+    a, b = base + (-2.0, 0.6, 2.0), base + (2.0, 0.6, 2.0)
+    path = Line(a, b, speed=2.0)
+    return batecho.Quadrotor.crazyflie().fly(path, duration=path.duration, dt=1e-2)
+
+
+def test_a_flights_clearance_is_the_forests_at_its_positions(forest, pass_by):
+    np.testing.assert_array_equal(pass_by.clearance(forest), forest.clearance(pass_by.positions))
+    np.testing.assert_array_equal(
+        pass_by.clearance(forest.scene()), forest.scene().clearance(pass_by.positions)
+    )
+
+
+def test_a_flights_smallest_clearance_names_its_time(forest, pass_by):
+    d = pass_by.clearance(forest)
+    smallest, t = pass_by.min_clearance(forest)
+    assert smallest == d.min() and t == pass_by.times[np.argmin(d)]
+
+
+def test_a_collision_is_the_first_time_the_clearance_falls_below_the_radius(forest, pass_by):
+    d = pass_by.clearance(forest)
+    radius = float(np.quantile(d, 0.2))
+    first = np.flatnonzero(d < radius)[0]
+    assert pass_by.collision(forest, radius) == pass_by.times[first]
+    assert pass_by.collision(forest, 0.0) is None
+    assert pass_by.collision(forest, float(d.min())) is None
+
+
+@pytest.mark.parametrize("bad", [-0.1, np.nan])
+def test_a_bad_drone_radius_is_refused_by_name(forest, pass_by, bad):
+    with pytest.raises(ValueError, match="radius_m"):
+        pass_by.collision(forest, bad)

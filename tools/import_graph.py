@@ -43,7 +43,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("sonar",),
     ("echoes",),
     ("reference", "outputs"),
-    ("scenefile", "paper", "dataset", "plotting", "treeplots", "trajectories"),
+    ("scenefile", "paper", "dataset", "plotting", "treeplots", "trajectories", "envs"),
     ("cli",),
     ("__main__",),
 )

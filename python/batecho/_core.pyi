@@ -141,5 +141,58 @@ def load_obj(
     int,
     list[str],
 ]: ...
+
+class Airframe:
+    """A quadrotor's parameters and SE(3) gains, checked (see ``batecho.Quadrotor``)."""
+
+    def __init__(
+        self,
+        *,
+        mass: float,
+        inertia: _F64,
+        arm_length: float,
+        k_f: float,
+        k_m: float,
+        motor_time_constant: float,
+        omega_min: float,
+        omega_max: float,
+        drag: _F64,
+        configuration: str,
+        gravity: float,
+        k_x: _F64,
+        k_v: _F64,
+        k_R: _F64,
+        k_Omega: _F64,
+        drag_feedforward: bool,
+    ) -> None: ...
+    @property
+    def mixer(self) -> _F64: ...
+
+def fly(
+    airframe: Airframe,
+    y0: _F64,
+    p: _F64,
+    v: _F64,
+    a: _F64,
+    yaw: _F64,
+    omega: _F64,
+    domega: _F64,
+    wind: _F64,
+    times: _F64,
+) -> _F64: ...
+
+class Swarm:
+    """Drones of one airframe stepped under velocity-and-yaw-rate commands."""
+
+    def __init__(self, airframe: Airframe, states: _F64) -> None: ...
+    def reset(self, states: _F64) -> None: ...
+    @property
+    def states(self) -> _F64: ...
+    @property
+    def n_drones(self) -> int: ...
+    def step(
+        self, velocities: _F64, yaw_rates: _F64, wind: _F64, dt: float, n_steps: int
+    ) -> npt.NDArray[np.float64]: ...
+
 def memory_limit() -> int: ...
 def set_memory_limit(bytes: int) -> int: ...

@@ -5,10 +5,11 @@ module name (``import batecho.trajectories``)."""
 from __future__ import annotations
 
 from .flight.kinematic import circle, figure_eight, line_to
-from .flight.trajectories import Circle, FigureEight, Hover, Line, Trajectory, Waypoints
+from .flight.trajectories import Circle, Cruise, FigureEight, Hover, Line, Trajectory, Waypoints
 
 __all__ = [
     "Circle",
+    "Cruise",
     "FigureEight",
     "Hover",
     "Line",

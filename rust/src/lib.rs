@@ -11,6 +11,7 @@ pub mod budget;
 pub mod echo;
 pub mod error;
 pub mod fast;
+pub mod flight;
 pub mod lobe;
 pub mod math;
 pub mod physics;

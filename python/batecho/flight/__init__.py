@@ -8,12 +8,14 @@ from .kinematic import circle, figure_eight, line_to
 from .mount import SonarMount
 from .poses import Poses, look_at
 from .record import Flight
-from .trajectories import Circle, FigureEight, Hover, Line, Trajectory, Waypoints
+from .sim import QuadrotorSim, SwarmState
+from .trajectories import Circle, Cruise, FigureEight, Hover, Line, Trajectory, Waypoints
 from .vehicle import GRAVITY, Gusts, Quadrotor, QuadState
 
 __all__ = [
     "GRAVITY",
     "Circle",
+    "Cruise",
     "FigureEight",
     "Flight",
     "Gusts",
@@ -22,8 +24,10 @@ __all__ = [
     "Poses",
     "QuadState",
     "Quadrotor",
+    "QuadrotorSim",
     "SE3Gains",
     "SonarMount",
+    "SwarmState",
     "Trajectory",
     "Waypoints",
     "circle",

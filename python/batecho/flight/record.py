@@ -67,6 +67,37 @@ class Flight:
         """(k,) angle between body z and world z, degrees."""
         return np.degrees(np.arccos(np.clip(self.attitudes[:, 2, 2], -1.0, 1.0)))
 
+    def clearance(self, forest: Any, *, bark: bool = True) -> np.ndarray:
+        """(k,) distance (m) from the body's centre at each recorded time to the nearest part
+        of ``forest`` (a :class:`~batecho.Forest`, or anything with a ``clearance(points)``
+        method such as a :class:`~batecho.Scene`): its leaf disks and, with ``bark``, its
+        bark (docs/model.md §6)."""
+        method = getattr(forest, "clearance", None)
+        if not callable(method):
+            raise TypeError(
+                f"forest must be a batecho.Forest or Scene, got {type(forest).__name__}"
+            )
+        if hasattr(forest, "bark"):
+            return np.asarray(method(self.positions, bark=bark))
+        return np.asarray(method(self.positions))
+
+    def min_clearance(self, forest: Any, *, bark: bool = True) -> tuple[float, float]:
+        """The flight's smallest clearance from ``forest`` (m) and the time (s) it occurs
+        (see :meth:`clearance`)."""
+        d = self.clearance(forest, bark=bark)
+        i = int(np.argmin(d))
+        return float(d[i]), float(self.times[i])
+
+    def collision(self, forest: Any, radius_m: float, *, bark: bool = True) -> float | None:
+        """The first recorded time (s) at which a drone of radius ``radius_m`` (a sphere about
+        the body's centre) touches ``forest`` -- its clearance below ``radius_m`` -- or None if
+        it never does."""
+        r = finite_scalar(radius_m, "radius_m")
+        if r < 0:
+            raise ValueError(f"radius_m must be >= 0, got {r}")
+        hit = np.flatnonzero(self.clearance(forest, bark=bark) < r)
+        return float(self.times[hit[0]]) if hit.size else None
+
     def pulse_times(self, rate_hz: float, start: float | None = None) -> np.ndarray:
         """Times (s) of pulses at ``rate_hz`` Hz from ``start`` (default the first sample)
         to the end of the flight."""

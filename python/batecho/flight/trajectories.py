@@ -20,7 +20,7 @@ from .._validate import finite, finite_scalar, positive_scalar, real_array, vect
 from ._paths import TINY, center_xy, gerono, heading_mode, point
 from .poses import Poses
 
-__all__ = ["Circle", "FigureEight", "Hover", "Line", "Trajectory", "Waypoints"]
+__all__ = ["Circle", "Cruise", "FigureEight", "Hover", "Line", "Trajectory", "Waypoints"]
 
 
 def _planar_yaw(
@@ -163,6 +163,42 @@ class Hover(Trajectory):
         if order == 0:
             out[:] = self.point
         return out
+
+
+class Cruise(Trajectory):
+    """Level flight at a constant ``velocity`` (m/s, world) from ``start`` (m), turning at a
+    constant ``yaw_rate_deg_s`` from ``yaw_deg``: ``p(t) = start + velocity t``,
+    ``yaw(t) = yaw_deg + yaw_rate_deg_s t`` (in radians inside). It is the reference of one
+    velocity-and-yaw-rate command of :class:`batecho.flight.sim.QuadrotorSim`."""
+
+    def __init__(
+        self,
+        start: Any,
+        velocity: Any,
+        yaw_deg: float = 0.0,
+        yaw_rate_deg_s: float = 0.0,
+    ):
+        self.start = point(start, "start")
+        self.cruise_velocity = point(velocity, "velocity")
+        self.yaw0 = math.radians(finite_scalar(yaw_deg, "yaw_deg"))
+        self.yaw_rate = math.radians(finite_scalar(yaw_rate_deg_s, "yaw_rate_deg_s"))
+        self._set_heading("fixed", None, yaw_deg, None)
+
+    def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
+        out = np.zeros((len(t), 3))
+        if order == 0:
+            out[:] = self.start + t[:, None] * self.cruise_velocity
+        elif order == 1:
+            out[:] = self.cruise_velocity
+        return out
+
+    def yaw_derivatives(self, t: Any) -> tuple[Any, Any, Any]:
+        arr = finite(real_array(t, "t"), "t")
+        yaw = self.yaw0 + self.yaw_rate * arr
+        rate, acc = np.full(arr.shape, self.yaw_rate), np.zeros(arr.shape)
+        if arr.ndim == 0:
+            return float(yaw), float(rate), 0.0
+        return yaw, rate, acc
 
 
 class Circle(Trajectory):

@@ -23,9 +23,11 @@ matrix, with each rotor's thrust clipped to its range.
 
 Integration: fixed-step classical RK4 with the controller sampled once per step (zero-order
 hold, like a flight controller running at 1/dt) and R re-orthonormalised after every step
-(polar factor by SVD). With a fixed dt (and the same ``rng`` seed when gusts are on) a flight
-is deterministic. ``method="scipy"`` integrates the continuous closed loop with
-``scipy.integrate.solve_ivp`` (DOP853) instead, as a cross-check.
+(its polar factor). With a fixed dt (and the same ``rng`` seed when gusts are on) a flight
+is deterministic. ``method="rust"`` (the default) steps in the Rust core (``rust/src/flight``)
+on reference samples computed here; ``"python"`` is the same loop in NumPy, the reference
+the Rust core is held to (polar factor by SVD); ``"scipy"`` integrates the continuous closed
+loop with ``scipy.integrate.solve_ivp`` (DOP853) instead, as a cross-check.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _core
 from .._resources import SlowWarning, check_memory
 from .._validate import finite, positive_scalar, readonly, real_array, vectors
 from ._so3 import E3, cross3, hat, orthonormalise, triple
@@ -44,17 +47,20 @@ from .controller import SE3Gains, desired_attitude, flat_reference, se3_control
 from .record import Flight
 from .trajectories import Trajectory
 
-#: A flight of more steps than this says first that it will run for minutes (the RK4 loop
-#: takes a few hundred microseconds a step).
+#: A flight of more steps than this says first that it will run for minutes in NumPy (the RK4
+#: loop takes a few hundred microseconds a step; the Rust one, a few microseconds).
 SLOW_STEPS = 200_000
 
 #: Memory per recorded step of a flight (bytes): the state, the reference, the commands, the
 #: wind and the integrator's temporaries.
 BYTES_PER_STEP = 1000.0
 
-__all__ = ["GRAVITY", "Gusts", "QuadState", "Quadrotor"]
+__all__ = ["FLY_METHODS", "GRAVITY", "Gusts", "QuadState", "Quadrotor"]
 
 GRAVITY = 9.81
+
+#: The integrators of :meth:`Quadrotor.fly`; the first is the default.
+FLY_METHODS = ("rust", "python", "scipy")
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,6 +161,7 @@ class Quadrotor:
     gravity: float = GRAVITY
     _mixer: np.ndarray = field(init=False, repr=False, compare=False)
     _mixer_inv: np.ndarray = field(init=False, repr=False, compare=False)
+    _airframe: _core.Airframe = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         for name in ("mass", "arm_length", "k_f", "k_m", "motor_time_constant", "gravity"):
@@ -191,6 +198,27 @@ class Quadrotor:
             raise ValueError(
                 f"omega_max is too low to hover: it must exceed {self.hover_rotor_speed:.6g} rad/s"
             )
+        g = self.gains
+        assert g is not None  # set above
+        airframe = _core.Airframe(
+            mass=self.mass,
+            inertia=J,
+            arm_length=self.arm_length,
+            k_f=self.k_f,
+            k_m=self.k_m,
+            motor_time_constant=self.motor_time_constant,
+            omega_min=lo,
+            omega_max=hi,
+            drag=d,
+            configuration=self.configuration,
+            gravity=self.gravity,
+            k_x=g.k_x,
+            k_v=g.k_v,
+            k_R=g.k_R,
+            k_Omega=g.k_Omega,
+            drag_feedforward=bool(self.drag_feedforward),
+        )
+        object.__setattr__(self, "_airframe", airframe)
 
     # -- airframes ---------------------------------------------------------------------
     @classmethod
@@ -345,15 +373,16 @@ class Quadrotor:
         rng: Any = None,
         *,
         gusts: Gusts | None = None,
-        method: str = "rk4",
+        method: str = FLY_METHODS[0],
     ) -> Flight:
         """Fly ``trajectory`` for ``duration`` s from t = 0 and record the state every ``dt``.
 
         Starts from ``initial_state`` or, by default, exactly on the reference
         (:meth:`initial_state`). ``gusts`` adds wind drawn from ``rng`` (a
         ``numpy.random.Generator`` or a seed; None means seed 0, so flights repeat).
-        ``method="rk4"`` (default): fixed-step RK4, controller at 1/dt; ``"scipy"``: adaptive
-        DOP853 on the continuous closed loop, sampled every dt.
+        ``method="rust"`` (default): fixed-step RK4, controller at 1/dt, in the Rust core;
+        ``"python"``: the same RK4 in NumPy (the reference; the two agree to about 1e-12);
+        ``"scipy"``: adaptive DOP853 on the continuous closed loop, sampled every dt.
         """
         if not isinstance(trajectory, Trajectory):
             raise TypeError("trajectory must be a batecho.trajectories.Trajectory")
@@ -364,18 +393,18 @@ class Quadrotor:
                 f"dt={h} s exceeds the motor time constant "
                 f"{self.motor_time_constant} s; RK4 would be inaccurate"
             )
-        if method not in ("rk4", "scipy"):
-            raise ValueError(f"method must be 'rk4' or 'scipy', got {method!r}")
+        if method not in FLY_METHODS:
+            raise ValueError(f"method must be one of {FLY_METHODS}, got {method!r}")
         steps = T / h
         check_memory(
             steps * BYTES_PER_STEP,
             f"a flight of duration {T:g} s at dt = {h:g} s ({steps:.3g} steps)",
             "use a larger dt, or fly a shorter duration in parts (initial_state=)",
         )
-        if steps > SLOW_STEPS:
+        if method != "rust" and steps > SLOW_STEPS:
             warnings.warn(
                 f"a flight of {steps:.3g} steps (duration {T:g} s / dt {h:g} s) runs for "
-                "minutes; a larger dt is faster",
+                "minutes; a larger dt or method='rust' is faster",
                 SlowWarning,
                 stacklevel=2,
             )
@@ -396,7 +425,20 @@ class Quadrotor:
         ref = flat_reference(trajectory, times, self.gravity)
         Y = np.empty((n + 1, 22))
         Y[0] = state.vector()
-        if method == "rk4":
+        if method == "rust":
+            Y[:] = _core.fly(
+                self._airframe,
+                Y[0],
+                ref["p"],
+                ref["v"],
+                ref["a"],
+                ref["yaw"],
+                ref["Omega"],
+                ref["dOmega"],
+                wind,
+                times,
+            )
+        elif method == "python":
             y = Y[0].copy()
             for k in range(n):
                 hk = times[k + 1] - times[k]

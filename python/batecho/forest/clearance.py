@@ -19,6 +19,7 @@ from .._validate import finite_scalar, vectors
 
 __all__ = [
     "DEFAULT_MIN_CLEARANCE_M",
+    "BarkGrid",
     "ClearanceWarning",
     "SolidClearance",
     "bark_clearance",
@@ -84,22 +85,115 @@ def point_triangle_distances(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
     return np.where(inside, plane, edges)
 
 
+class BarkGrid:
+    """Bark triangles filed by the horizontal grid cells (``cell_m`` square) their bounding
+    boxes overlap, so that a point's nearest triangle is found among the few near it: every
+    triangle within ``r`` of a point has its box within ``r`` of it, hence in a cell that the
+    square ``p +- r`` overlaps (:meth:`nearest` widens ``r`` until the nearest is inside)."""
+
+    def __init__(self, vertices: Any, faces: Any, cell_m: float = 0.5):
+        v = np.asarray(vertices, dtype=np.float64)
+        f = np.asarray(faces, dtype=np.int64)
+        self.tri = v[f] if len(f) else np.zeros((0, 3, 3))
+        self.lo, self.hi = self.tri.min(axis=1), self.tri.max(axis=1)
+        self.cell_m = float(cell_m)
+        if not len(f):
+            self.origin, self.shape = np.zeros(2), (0, 0)
+            self.items, self.starts = np.zeros(0, np.int64), np.zeros(1, np.int64)
+            return
+        self.origin = self.lo[:, :2].min(axis=0)
+        i0 = np.floor((self.lo[:, :2] - self.origin) / cell_m).astype(np.int64)
+        i1 = np.floor((self.hi[:, :2] - self.origin) / cell_m).astype(np.int64)
+        nx, ny = int(i1[:, 0].max()) + 1, int(i1[:, 1].max()) + 1
+        self.shape = (nx, ny)
+        wx, wy = i1[:, 0] - i0[:, 0] + 1, i1[:, 1] - i0[:, 1] + 1
+        counts = wx * wy
+        owner = np.repeat(np.arange(len(f)), counts)
+        k = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+        cx = i0[owner, 0] + k % wx[owner]
+        cy = i0[owner, 1] + k // wx[owner]
+        cell = cx * ny + cy
+        order = np.argsort(cell, kind="stable")
+        self.items = owner[order]
+        self.starts = np.searchsorted(cell[order], np.arange(nx * ny + 1))
+
+    def __len__(self) -> int:
+        return len(self.tri)
+
+    def candidates(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Indices of the triangles filed in the cells the box ``lo``..``hi`` (x, y) overlaps."""
+        nx, ny = self.shape
+        a = np.floor((np.asarray(lo[:2]) - self.origin) / self.cell_m).astype(np.int64)
+        b = np.floor((np.asarray(hi[:2]) - self.origin) / self.cell_m).astype(np.int64)
+        x0, y0 = max(int(a[0]), 0), max(int(a[1]), 0)
+        x1, y1 = min(int(b[0]), nx - 1), min(int(b[1]), ny - 1)
+        if x0 > x1 or y0 > y1:
+            return np.zeros(0, np.int64)
+        parts = [
+            self.items[self.starts[x * ny + y0] : self.starts[x * ny + y1 + 1]]
+            for x in range(x0, x1 + 1)
+        ]
+        return np.unique(np.concatenate(parts))
+
+    def nearest(self, p: np.ndarray, upper: float) -> tuple[float, int]:
+        """The distance (m) from ``p`` (3,) to the nearest triangle and its index, or
+        ``(inf, -1)`` if none is within ``upper``."""
+        if not len(self.tri):
+            return np.inf, -1
+        r = self.cell_m
+        while True:
+            reach = min(r, upper)
+            cand = self.candidates(p - reach, p + reach)
+            gap = np.maximum(np.maximum(self.lo[cand] - p, p - self.hi[cand]), 0.0)
+            near = cand[dots(gap, gap) <= reach * reach]
+            if near.size:
+                d = point_triangle_distances(p, self.tri[near])
+                k = int(np.argmin(d))
+                if d[k] <= reach:
+                    return float(d[k]), int(near[k])
+            if reach >= upper:
+                return np.inf, -1
+            r *= 2.0
+
+    def set_clearance(self, points: np.ndarray, upper: float) -> float:
+        """The distance (m) from the nearest of ``points`` (n, 3) to the nearest triangle, or
+        ``inf`` if none is within ``upper`` (finite): the triangles searched are those whose
+        boxes come within ``upper`` of the points' box."""
+        if not len(self.tri) or not len(points):
+            return np.inf
+        a, b = points.min(axis=0), points.max(axis=0)
+        cand = self.candidates(a - upper, b + upper)
+        gap = np.maximum(np.maximum(self.lo[cand] - b, a - self.hi[cand]), 0.0)
+        near = cand[dots(gap, gap) <= upper * upper]
+        if not near.size:
+            return np.inf
+        tri = self.tri[near]
+        best = min(float(point_triangle_distances(p, tri).min()) for p in points)
+        return best if best <= upper else np.inf
+
+
 def bark_clearance(
-    vertices: Any, faces: Any, points: Any, upper: Any = None
+    vertices: Any, faces: Any, points: Any, upper: Any = None, grid: BarkGrid | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per point, the distance (m) to the nearest bark triangle and its index (-1 if none
     within ``upper``).
 
     ``upper`` (n,) m, optional: only triangles nearer than this count (their boxes are tested
-    first), e.g. the nearest leaf's distance; a point with none gets ``inf``.
+    first), e.g. the nearest leaf's distance; a point with none gets ``inf``. ``grid``: the
+    :class:`BarkGrid` of these triangles, if built already (then ``vertices`` and ``faces``
+    are not read): each point searches only the cells near it.
     """
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
     pts = vectors(points, "points")
     n = len(pts)
     up = np.full(n, np.inf) if upper is None else np.asarray(upper, dtype=np.float64)
     dist = np.full(n, np.inf)
     index = np.full(n, -1, dtype=np.int64)
+    if grid is not None:
+        for i in range(n):
+            dist[i], index[i] = grid.nearest(pts[i], float(up[i]))
+        return dist, index
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
     if len(f) == 0:
         return dist, index
     tri = v[f]
@@ -196,7 +290,10 @@ def solid_clearance(
     pts = vectors(points, "points")
     leaf, idx = as_scene(obj if scene is None else scene).clearance(pts, return_index=True)
     arrays = _bark_arrays(obj) if bark else None
-    if arrays is None:
+    grid = getattr(obj, "bark_grid", None) if bark else None
+    if callable(grid):  # a Forest keeps its bark filed by cells
+        barkd = bark_clearance(None, None, pts, upper=leaf, grid=grid())[0]
+    elif arrays is None:
         barkd = np.full(len(pts), np.inf)
     else:
         barkd = bark_clearance(arrays[0], arrays[1], pts, upper=leaf)[0]

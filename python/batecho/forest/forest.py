@@ -38,7 +38,7 @@ from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
 from ..trees.objfile import write_obj
 from ..trees.tree import Tree
-from .clearance import DEFAULT_MIN_CLEARANCE_M
+from .clearance import DEFAULT_MIN_CLEARANCE_M, BarkGrid
 from .ipp import PAPER_WINDOW, _as_window, paper_intensity, sample_ipp
 from .scene import Scene
 
@@ -148,6 +148,7 @@ class Forest:
         self._wood_scene: Scene | None = None
         self._branches: Branches | None = None
         self._bark: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._bark_grid: BarkGrid | None = None
 
     # -- construction ---------------------------------------------------------------------------
 
@@ -545,6 +546,14 @@ class Forest:
             for a in self._bark:
                 a.setflags(write=False)
         return self._bark
+
+    def bark_grid(self) -> BarkGrid:
+        """The bark triangles filed by horizontal cells for nearest-triangle queries
+        (:class:`~batecho.forest.clearance.BarkGrid`; built once, on first call)."""
+        if self._bark_grid is None:
+            v, f = self.bark()[:2]
+            self._bark_grid = BarkGrid(v, f)
+        return self._bark_grid
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounding box ``(min, max)`` of all leaf disks and bark, m."""

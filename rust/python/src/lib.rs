@@ -2,6 +2,7 @@
 //! core, and nothing else. Heavy work runs with the GIL released.
 
 mod echoes;
+mod flight;
 mod obj;
 mod scene;
 mod sonar;
@@ -77,6 +78,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(echoes::leaf_sights, m)?)?;
     m.add_function(wrap_pyfunction!(echoes::farthest_members, m)?)?;
     m.add_function(wrap_pyfunction!(obj::load_obj, m)?)?;
+    m.add_class::<flight::PyAirframe>()?;
+    m.add_class::<flight::PySwarm>()?;
+    m.add_function(wrap_pyfunction!(flight::fly, m)?)?;
     m.add_function(wrap_pyfunction!(memory_limit, m)?)?;
     m.add_function(wrap_pyfunction!(set_memory_limit, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

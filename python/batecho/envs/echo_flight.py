@@ -1,0 +1,437 @@
+"""``batecho/EchoFlight-v0``: a quadrotor crosses a forest drawn from a Poisson process, steered
+by a policy that hears the foliage's echoes and never sees the trees (docs/guide/envs.md).
+
+An episode: a forest of ``density`` trees per m² on a corridor ``length_m`` long and
+``width_m`` wide (trees from ``trees_from_m`` to ``length_m - trees_from_m`` along it); the
+drone starts hovering at its near edge, at ``altitude_m`` among the crowns, facing along the
+corridor, and must reach the goal disc (``goal_radius_m``, horizontal) at the far edge.
+
+A step is one pulse interval (``1 / pulse_rate_hz`` s). The action (4,) in [-1, 1] is a command
+in the heading frame: forward, left and up velocity (times ``max_speed_mps``,
+``max_speed_mps``, ``max_climb_mps``) and yaw rate (times ``max_yaw_rate``). The SE(3)
+controller tracks it through the quadrotor's full dynamics (:class:`~batecho.QuadrotorSim`,
+RK4 steps of ``dt``); at the end of the interval the sonar sends one pulse and both ears
+record its echoes.
+
+Until the issues on two ears and on branch shading land, each "ear" is the monostatic sonar
+``sonar`` (one :func:`~batecho.simulate` call for both) with its beam turned ``ear_yaw_deg`` to
+its side of the heading (a :class:`~batecho.SonarMount`), and the forest's trees are leaves
+and bark without branch surfaces in the echoes. Collisions count leaves and bark
+(:meth:`~batecho.Forest.clearance`) and the ground.
+
+The observation (a Dict, float32):
+
+- ``echoes`` (2, ``n_range_bins``): each ear's echo envelope (docs/model.md §5, the analytic
+  signal of the impulse response) in dB re 1 (relative pressure), the largest in each of
+  ``n_range_bins`` equal range bins from 0 to the sonar's reach, clipped to
+  [``floor_db``, ``ceiling_db``]; row 0 the left ear, row 1 the right;
+- ``velocity`` (3,): the body-frame velocity (forward, left, up), m/s (clipped to +-20);
+- ``attitude`` (3,): roll, pitch and yaw (rad, ZYX Euler angles of body -> world);
+- ``goal`` (2,): the goal's bearing in the heading frame (rad, positive to the left) and its
+  horizontal distance (m).
+
+The reward is the progress toward the goal (m, the fall of its horizontal distance) less
+``effort_weight`` times the action's squared norm; a collision or leaving the corridor costs
+``collision_penalty`` and reaching the goal earns ``success_reward``. The episode terminates on
+a collision (a clearance below ``drone_radius_m`` anywhere along the step's RK4 path;
+``info["collision"]``), on leaving the corridor (``info["out_of_bounds"]``) or on reaching the
+goal (``info["is_success"]``), and is truncated after ``max_time_s``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..echoes.simulate import simulate
+from ..flight.mount import SonarMount
+from ..flight.poses import Poses
+from ..flight.sim import QuadrotorSim
+from ..flight.trajectories import Hover
+from ..flight.vehicle import Quadrotor
+from ..forest.forest import Forest
+from ..sonar.sonar import Sonar
+
+__all__ = ["CLEARANCE_HORIZON_M", "EchoFlightEnv", "default_sonar", "echo_levels_db"]
+
+#: Clearances (m) in ``info["clearance_m"]`` are exact up to this and clipped to it.
+CLEARANCE_HORIZON_M = 2.0
+
+#: Body velocities in the observation are clipped to +- this (m/s).
+MAX_OBSERVED_SPEED_MPS = 20.0
+
+#: Attempts at drawing a forest whose start and goal keep clear of it before giving up.
+_MAX_DRAWS = 50
+
+
+def default_sonar() -> Sonar:
+    """The environment's sonar: the paper's (30 deg beam, 60-80 kHz, detectable lobe with a
+    10 m reach) with a record that just covers the reach (200 kHz sampling, 12,000 samples =
+    60 ms, 10.2 m)."""
+    return Sonar(beamwidth_deg=30.0, fs=200e3, n_samples=12_000)
+
+
+def echo_levels_db(
+    envelope: np.ndarray,
+    ranges: np.ndarray,
+    reach_m: float,
+    n_bins: int,
+    floor_db: float,
+    ceiling_db: float,
+) -> np.ndarray:
+    """(p, n_bins) the largest of each row of ``envelope`` (p, n) in each of ``n_bins`` equal
+    range bins over [0, ``reach_m``) (``ranges`` (n,) m, increasing), in dB re 1, clipped to
+    [``floor_db``, ``ceiling_db``]; an empty bin is ``floor_db``."""
+    edges = np.searchsorted(ranges, np.linspace(0.0, reach_m, n_bins + 1))
+    out = np.full((len(envelope), n_bins), floor_db)
+    tiny = 10.0 ** (floor_db / 20.0)
+    for b in range(n_bins):
+        lo, hi = edges[b], edges[b + 1]
+        if hi > lo:
+            peak = envelope[:, lo:hi].max(axis=1)
+            out[:, b] = 20.0 * np.log10(np.maximum(peak, tiny))
+    return np.clip(out, floor_db, ceiling_db)
+
+
+def _yaw(R: np.ndarray) -> float:
+    return math.atan2(float(R[1, 0]), float(R[0, 0]))
+
+
+def _euler_zyx(R: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw (rad) of ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
+    pitch = math.asin(max(-1.0, min(1.0, -float(R[2, 0]))))
+    roll = math.atan2(float(R[2, 1]), float(R[2, 2]))
+    return np.array([roll, pitch, _yaw(R)])
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
+    """Fly a quadrotor across a forest by its echoes (module docstring; ``batecho/EchoFlight-v0``).
+
+    Lengths in m, speeds in m/s, rates in rad/s, times in s. ``sonar``: a
+    :class:`~batecho.Sonar` (default :func:`default_sonar`); ``quadrotor``: a
+    :class:`~batecho.Quadrotor` (default :meth:`~batecho.Quadrotor.crazyflie`);
+    ``tree_params``: keyword arguments of :func:`~batecho.grow_tree`; ``variants``: distinct
+    trees grown per forest (each placed tree one of them, turned and scaled).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}  # noqa: RUF012 (gymnasium's attribute)
+
+    def __init__(
+        self,
+        *,
+        density: float = 0.03,
+        length_m: float = 24.0,
+        width_m: float = 14.0,
+        trees_from_m: float = 3.0,
+        altitude_m: float = 2.5,
+        goal_radius_m: float = 2.5,
+        ceiling_m: float = 8.0,
+        drone_radius_m: float = 0.15,
+        pulse_rate_hz: float = 20.0,
+        max_time_s: float = 40.0,
+        max_speed_mps: float = 1.5,
+        max_climb_mps: float = 0.5,
+        max_yaw_rate: float = 1.5,
+        dt: float = 1e-3,
+        n_range_bins: int = 32,
+        ear_yaw_deg: float = 25.0,
+        floor_db: float = -100.0,
+        ceiling_db: float = 20.0,
+        effort_weight: float = 0.01,
+        collision_penalty: float = 10.0,
+        success_reward: float = 10.0,
+        sonar: Sonar | None = None,
+        quadrotor: Quadrotor | None = None,
+        tree_params: dict[str, Any] | None = None,
+        variants: int = 4,
+        method: str = "auto",
+        tol: float = 1e-6,
+        render_mode: str | None = None,
+    ):
+        for name, value in (
+            ("length_m", length_m),
+            ("width_m", width_m),
+            ("altitude_m", altitude_m),
+            ("goal_radius_m", goal_radius_m),
+            ("drone_radius_m", drone_radius_m),
+            ("pulse_rate_hz", pulse_rate_hz),
+            ("max_time_s", max_time_s),
+            ("max_speed_mps", max_speed_mps),
+            ("max_climb_mps", max_climb_mps),
+            ("max_yaw_rate", max_yaw_rate),
+            ("dt", dt),
+        ):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        if not (math.isfinite(density) and density >= 0):
+            raise ValueError(f"density must be a finite number >= 0 (trees/m^2), got {density!r}")
+        if not 0 <= trees_from_m < length_m / 2:
+            raise ValueError(f"trees_from_m must be in [0, length_m/2), got {trees_from_m!r}")
+        if ceiling_m <= altitude_m:
+            raise ValueError(f"ceiling_m ({ceiling_m}) must be above altitude_m ({altitude_m})")
+        if int(n_range_bins) != n_range_bins or n_range_bins < 1:
+            raise ValueError(f"n_range_bins must be an integer >= 1, got {n_range_bins!r}")
+        if not floor_db < ceiling_db:
+            raise ValueError(f"floor_db ({floor_db}) must be below ceiling_db ({ceiling_db})")
+        n_sub = round(1.0 / (pulse_rate_hz * dt))
+        if n_sub < 1 or abs(n_sub * dt * pulse_rate_hz - 1.0) > 1e-9:
+            raise ValueError(
+                f"the pulse interval 1/pulse_rate_hz = {1 / pulse_rate_hz:g} s must be a whole "
+                f"number of RK4 steps dt = {dt:g} s"
+            )
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.density = float(density)
+        self.length_m, self.width_m = float(length_m), float(width_m)
+        self.trees_from_m, self.altitude_m = float(trees_from_m), float(altitude_m)
+        self.goal_radius_m, self.ceiling_m = float(goal_radius_m), float(ceiling_m)
+        self.drone_radius_m = float(drone_radius_m)
+        self.pulse_rate_hz, self.dt, self.n_substeps = float(pulse_rate_hz), float(dt), n_sub
+        self.max_steps = math.ceil(max_time_s * pulse_rate_hz - 1e-9)
+        self.scales = np.array([max_speed_mps, max_speed_mps, max_climb_mps, max_yaw_rate])
+        self.n_range_bins = int(n_range_bins)
+        self.floor_db, self.ceiling_db = float(floor_db), float(ceiling_db)
+        self.effort_weight = float(effort_weight)
+        self.collision_penalty, self.success_reward = (
+            float(collision_penalty),
+            float(success_reward),
+        )
+        self.sonar = default_sonar() if sonar is None else sonar
+        if not isinstance(self.sonar, Sonar):
+            raise TypeError(f"sonar must be a batecho.Sonar, got {type(self.sonar).__name__}")
+        self.quadrotor = Quadrotor.crazyflie() if quadrotor is None else quadrotor
+        self.tree_params = dict(tree_params or {})
+        self.variants = int(variants)
+        self.method, self.tol = method, float(tol)
+        self.ears = (SonarMount(yaw_deg=ear_yaw_deg), SonarMount(yaw_deg=-ear_yaw_deg))
+        reach = self.sonar.reach_m()
+        if not self.sonar.is_auto:
+            reach = min(reach, self.sonar.record_range_m)
+        if not math.isfinite(reach):
+            raise ValueError("the sonar must have a finite reach (a cone lobe needs max_range_m)")
+        #: The range the echo bins cover (m): the lobe's reach, within the record.
+        self.reach_m = float(reach)
+        self.render_mode = render_mode
+
+        self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
+        #: The bounds the observation's speeds (m/s) and goal distance (m) are clipped to.
+        self.max_observed_speed_mps = MAX_OBSERVED_SPEED_MPS
+        self.max_goal_distance_m = 2.0 * math.hypot(
+            self.length_m + self.trees_from_m + self.goal_radius_m, self.width_m
+        )
+        vmax, dmax = self.max_observed_speed_mps, self.max_goal_distance_m
+        self.observation_space = spaces.Dict(
+            {
+                "echoes": spaces.Box(floor_db, ceiling_db, (2, self.n_range_bins), np.float32),
+                "velocity": spaces.Box(-vmax, vmax, (3,), np.float32),
+                "attitude": spaces.Box(-np.pi, np.pi, (3,), np.float32),
+                "goal": spaces.Box(
+                    np.array([-np.pi, 0.0], np.float32), np.array([np.pi, dmax], np.float32)
+                ),
+            }
+        )
+        self.forest: Forest | None = None
+        self._forests: dict[int, Forest] = {}
+        self.sim: QuadrotorSim | None = None
+        self.goal = np.zeros(3)
+        self.path: list[np.ndarray] = []
+        self._echo_db = np.full((2, self.n_range_bins), self.floor_db)
+        self._steps = 0
+
+    # -- an episode ---------------------------------------------------------------------------
+
+    def _draw_forest(self) -> Forest:
+        """A forest whose start and goal keep twice the drone's radius plus 0.5 m from it."""
+        half = self.width_m / 2.0
+        window = (self.trees_from_m, self.length_m - self.trees_from_m, -half, half)
+        need = 2.0 * self.drone_radius_m + 0.5
+        ends = np.array([self.start, self.goal])
+        density = self.density
+
+        def intensity(x: Any, y: Any) -> np.ndarray:
+            return np.full(np.shape(x), density)
+
+        for _ in range(_MAX_DRAWS):
+            seed = int(self.np_random.integers(2**63))
+            if seed in self._forests:  # the same seed's forest as an earlier episode's
+                forest = self._forests[seed]
+                if forest.n_trees == 0 or float(forest.clearance(ends).min()) >= need:
+                    return forest
+                continue
+            forest = Forest.from_ipp(
+                intensity,
+                window,
+                seed,
+                tree_params=self.tree_params,
+                variants=self.variants,
+                lambda_max=max(density, 1e-12),
+            )
+            self._forests = {seed: forest}  # kept for the next episode of the same seed
+            if forest.n_trees == 0 or float(forest.clearance(ends).min()) >= need:
+                return forest
+        raise RuntimeError(
+            f"no forest of density {self.density} trees/m^2 in {_MAX_DRAWS} draws left the "
+            f"start and goal {need:.2f} m clear; lower density or raise altitude_m"
+        )
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """A new forest, start and goal, all drawn from ``seed`` (or the environment's
+        generator)."""
+        super().reset(seed=seed)
+        q = self.width_m / 4.0
+        self.start = np.array([0.0, float(self.np_random.uniform(-q, q)), self.altitude_m])
+        self.goal = np.array([self.length_m, float(self.np_random.uniform(-q, q)), self.altitude_m])
+        self.forest = self._draw_forest()
+        state = self.quadrotor.initial_state(Hover(self.start, yaw_deg=0.0))
+        if self.sim is None:
+            self.sim = QuadrotorSim(self.quadrotor, state)
+        else:
+            self.sim.reset(state)
+        self._steps = 0
+        self.path = [self.start.copy()]
+        self._echo_db = self._pulse()
+        return self._observation(), self._info(
+            self._path_clearance(self.start[None, :]), False, False, False
+        )
+
+    # -- a step -------------------------------------------------------------------------------
+
+    def command(self, action: Any) -> tuple[np.ndarray, float]:
+        """The world velocity (3,) m/s and yaw rate (rad/s) that ``action`` commands now."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != (4,) or not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be 4 finite numbers, got {action!r}")
+        u = np.clip(a, -1.0, 1.0) * self.scales
+        assert self.sim is not None
+        psi = _yaw(self.sim.state.attitudes[0])
+        c, s = math.cos(psi), math.sin(psi)
+        return np.array([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2]]), float(u[3])
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        if self.sim is None or self.forest is None:
+            raise RuntimeError("call reset() before step()")
+        velocity, yaw_rate = self.command(action)
+        before = self._goal_distance()
+        self.sim.step(velocity, yaw_rate, dt=self.dt, n_steps=self.n_substeps)
+        self._steps += 1
+        path = self.sim.path[0]
+        self.path.append(path[-1].copy())
+        clearance = self._path_clearance(path)
+        collision = clearance < self.drone_radius_m
+        p = path[-1]
+        half = self.width_m / 2.0
+        out = not collision and bool(
+            p[0] < -self.trees_from_m
+            or p[0] > self.length_m + self.goal_radius_m
+            or abs(p[1]) > half
+            or p[2] > self.ceiling_m
+        )
+        success = not (collision or out) and self._goal_distance() <= self.goal_radius_m
+        a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+        reward = before - self._goal_distance() - self.effort_weight * float(a @ a)
+        if collision or out:
+            reward -= self.collision_penalty
+        if success:
+            reward += self.success_reward
+        terminated = collision or out or success
+        truncated = not terminated and self._steps >= self.max_steps
+        self._echo_db = self._pulse()
+        return (
+            self._observation(),
+            float(reward),
+            bool(terminated),
+            bool(truncated),
+            self._info(clearance, collision, out, success),
+        )
+
+    def _path_clearance(self, path: np.ndarray) -> float:
+        """The smallest distance (m) from ``path`` (k, 3) to the forest's leaves and bark and
+        to the ground, exact up to :data:`CLEARANCE_HORIZON_M` and clipped there."""
+        assert self.forest is not None
+        d = min(float(path[:, 2].min()), CLEARANCE_HORIZON_M)
+        if self.forest.n_trees:
+            d = min(d, float(self.forest.scene().clearance(path).min()))
+            d = min(d, self.forest.bark_grid().set_clearance(path, d))
+        return d
+
+    # -- what the drone senses ----------------------------------------------------------------
+
+    def ear_poses(self) -> Poses:
+        """The two ears' sonar poses now: left, then right."""
+        assert self.sim is not None
+        st = self.sim.state
+        p, R = st.positions[0], st.attitudes[0]
+        return Poses.concatenate([ear.pose(p, R) for ear in self.ears])
+
+    def _pulse(self) -> np.ndarray:
+        assert self.forest is not None
+        if self.forest.n_trees == 0:
+            return np.full((2, self.n_range_bins), self.floor_db)
+        echoes = simulate(
+            self.forest.scene(),
+            self.sonar,
+            self.ear_poses(),
+            method=self.method,
+            tol=self.tol,
+            min_clearance_m=0.0,
+        )
+        return echo_levels_db(
+            echoes.envelope(),
+            echoes.ranges,
+            self.reach_m,
+            self.n_range_bins,
+            self.floor_db,
+            self.ceiling_db,
+        )
+
+    def _goal_distance(self) -> float:
+        assert self.sim is not None
+        return float(np.hypot(*(self.goal[:2] - self.sim.state.positions[0, :2])))
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        assert self.sim is not None
+        st = self.sim.state
+        R, p = st.attitudes[0], st.positions[0]
+        d = self.goal[:2] - p[:2]
+        vmax = self.max_observed_speed_mps
+        bearing = _wrap(math.atan2(float(d[1]), float(d[0])) - _yaw(R))
+        return {
+            "echoes": self._echo_db.astype(np.float32),
+            "velocity": np.clip(R.T @ st.velocities[0], -vmax, vmax).astype(np.float32),
+            "attitude": _euler_zyx(R).astype(np.float32),
+            "goal": np.array([bearing, min(math.hypot(*d), self.max_goal_distance_m)], np.float32),
+        }
+
+    def _info(self, clearance: float, collision: bool, out: bool, success: bool) -> dict[str, Any]:
+        assert self.sim is not None
+        return {
+            "clearance_m": clearance,
+            "collision": collision,
+            "out_of_bounds": out,
+            "is_success": success,
+            "time_s": self._steps / self.pulse_rate_hz,
+            "position": self.sim.state.positions[0].copy(),
+        }
+
+    # -- pictures -----------------------------------------------------------------------------
+
+    def render(self) -> np.ndarray | None:
+        """An RGB array (h, w, 3) uint8 of the forest from above, the path so far and each
+        ear's lobe now (``render_mode="rgb_array"``); None without a render mode."""
+        if self.render_mode is None:
+            return None
+        if self.forest is None:
+            raise RuntimeError("call reset() before render()")
+        from .render import top_view
+
+        return top_view(self)

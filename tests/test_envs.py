@@ -1,0 +1,207 @@
+"""batecho/EchoFlight-v0 (batecho.envs): the Gymnasium contract, reproducible episodes,
+collisions and goals that end them, finite observations, and the baselines."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from batecho.envs import ENV_ID, EchoFlightEnv
+from batecho.envs.baselines import blind, echo_reactive
+
+#: A small forest that grows in a fraction of a second: one tree variant of three branches.
+SMALL = {
+    "density": 0.06,
+    "length_m": 12.0,
+    "width_m": 8.0,
+    "trees_from_m": 2.5,
+    "variants": 1,
+    "tree_params": {"n_branches": 3},
+    "max_time_s": 15.0,
+}
+
+
+def run(env: gym.Env, policy, seed: int, max_steps: int = 10_000):
+    """Observations, rewards and the last info of one episode of ``policy``."""
+    obs, info = env.reset(seed=seed)
+    observations, rewards = [obs], []
+    for _ in range(max_steps):
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        observations.append(obs)
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    return observations, rewards, info
+
+
+def test_the_environment_passes_gymnasiums_env_checker():
+    env = gym.make(ENV_ID, **SMALL, render_mode="rgb_array")
+    check_env(env.unwrapped)
+
+
+def test_importing_batecho_envs_registers_echoflight():
+    assert ENV_ID in gym.registry
+    assert isinstance(gym.make(ENV_ID, density=0.0).unwrapped, EchoFlightEnv)
+
+
+def test_seeded_episodes_are_reproducible_step_by_step():
+    env = EchoFlightEnv(**SMALL)
+    rng = np.random.default_rng(3)
+    actions = rng.uniform(-1, 1, (40, 4)).astype(np.float32)
+    runs = []
+    for _ in range(2):
+        obs, _ = env.reset(seed=11)
+        trace = [obs]
+        for a in actions:
+            obs, reward, terminated, truncated, info = env.step(a)
+            trace.append((obs, reward, terminated, truncated, info["clearance_m"]))
+            if terminated or truncated:
+                break
+        runs.append(trace)
+    assert len(runs[0]) == len(runs[1])
+    for a, b in zip(runs[0][1:], runs[1][1:], strict=True):
+        for key in a[0]:
+            assert np.array_equal(a[0][key], b[0][key])
+        assert a[1:] == b[1:]
+
+
+def test_different_seeds_draw_different_forests():
+    env = EchoFlightEnv(**SMALL)
+    env.reset(seed=1)
+    first = env.forest.positions.copy()
+    env.reset(seed=2)
+    assert first.shape != env.forest.positions.shape or not np.array_equal(
+        first, env.forest.positions
+    )
+
+
+def test_observations_are_finite_and_in_their_space():
+    env = EchoFlightEnv(**SMALL)
+    rng = np.random.default_rng(0)
+    observations, _, _ = run(env, lambda obs: rng.uniform(-1, 1, 4).astype(np.float32), seed=5)
+    for obs in observations:
+        assert env.observation_space.contains(obs)
+        for value in obs.values():
+            assert np.all(np.isfinite(value))
+
+
+def test_the_observation_has_no_tree_positions():
+    env = EchoFlightEnv(**SMALL)
+    obs, _ = env.reset(seed=0)
+    assert set(obs) == {"echoes", "velocity", "attitude", "goal"}
+    assert obs["echoes"].shape == (2, env.n_range_bins)
+
+
+def toward(env: EchoFlightEnv, target: np.ndarray):
+    """A policy flying level straight at ``target`` (world, m), read from the environment."""
+
+    def policy(obs):
+        p = env.sim.state.positions[0]
+        R = env.sim.state.attitudes[0]
+        d = (R.T @ (target - p))[:2]
+        d = d / max(np.linalg.norm(d), 1e-9)
+        return np.array([d[0], d[1], 0.0, 0.0], np.float32)
+
+    return policy
+
+
+def test_flying_into_a_tree_terminates_with_a_collision():
+    env = EchoFlightEnv(**SMALL)
+    env.reset(seed=4)
+    assert env.forest.n_trees >= 1
+    trunk = env.forest.trunk_bases[0] + (0.0, 0.0, env.altitude_m)
+    policy = toward(env, trunk)
+    obs, info = env.start, None
+    for _ in range(2000):
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        if terminated or truncated:
+            break
+    assert terminated and info["collision"] and not info["is_success"]
+    assert info["clearance_m"] < env.drone_radius_m
+    assert reward < -env.collision_penalty / 2
+
+
+def test_reaching_the_goal_ends_the_episode_with_success():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    _, rewards, info = run(env, blind(env), seed=2)
+    assert info["is_success"] and not info["collision"]
+    assert math.hypot(*(info["position"][:2] - env.goal[:2])) <= env.goal_radius_m
+    assert sum(rewards) > env.success_reward
+
+
+def test_an_episode_is_truncated_at_the_time_limit():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0, "max_time_s": 0.5})
+    env.reset(seed=0)
+    hover = np.zeros(4, np.float32)
+    ends = [env.step(hover)[2:4] for _ in range(env.max_steps)]
+    assert ends[-1] == (False, True) and all(e == (False, False) for e in ends[:-1])
+
+
+def test_the_echoes_grow_louder_as_a_tree_comes_near():
+    env = EchoFlightEnv(**SMALL)
+    env.reset(seed=4)
+    trunk = env.forest.trunk_bases[0] + (0.0, 0.0, env.altitude_m)
+    policy = toward(env, trunk)
+    obs, loudest = None, []
+    for _ in range(2000):
+        obs, _, terminated, truncated, _info = env.step(policy(obs))
+        loudest.append(float(obs["echoes"].max()))
+        if terminated or truncated:
+            break
+    assert loudest[-1] > loudest[0] + 20.0
+
+
+@pytest.mark.parametrize("make_policy", [blind, echo_reactive])
+def test_each_baseline_flies_a_full_episode(make_policy):
+    env = EchoFlightEnv(**SMALL)
+    policy = make_policy(env)
+    _, rewards, info = run(env, policy, seed=7)
+    assert rewards and (
+        info["is_success"] or info["collision"] or info["out_of_bounds"] or info["time_s"] > 0
+    )
+    assert env.action_space.contains(policy(env.reset(seed=7)[0]))
+
+
+def test_render_gives_an_rgb_array():
+    env = EchoFlightEnv(**SMALL, render_mode="rgb_array")
+    env.reset(seed=0)
+    env.step(np.array([1, 0, 0, 0], np.float32))
+    img = env.render()
+    assert img.ndim == 3 and img.shape[2] == 3 and img.dtype == np.uint8
+    assert img.std() > 0
+
+
+def test_sync_vector_envs_step_together():
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", **SMALL)
+    obs, _ = envs.reset(seed=0)
+    assert obs["echoes"].shape == (2, 2, 32)
+    obs, reward, _terminated, _truncated, _info = envs.step(np.zeros((2, 4), np.float32))
+    assert reward.shape == (2,)
+    envs.close()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "word"),
+    [
+        ({"density": -1.0}, "density"),
+        ({"length_m": float("nan")}, "length_m"),
+        ({"n_range_bins": 0}, "n_range_bins"),
+        ({"pulse_rate_hz": 30.0}, "pulse interval"),
+        ({"ceiling_m": 1.0}, "ceiling_m"),
+        ({"render_mode": "human"}, "render_mode"),
+    ],
+)
+def test_impossible_parameters_are_refused_by_name(kwargs, word):
+    with pytest.raises(ValueError, match=word):
+        EchoFlightEnv(**kwargs)
+
+
+def test_a_nan_action_is_refused():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.array([np.nan, 0, 0, 0]))
