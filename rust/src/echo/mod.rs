@@ -36,6 +36,7 @@ pub mod regime;
 pub mod spectrum;
 pub mod tables;
 pub mod term;
+pub mod term_pool;
 
 pub use branch::{
     add_branch, branch_points, branch_term, sum_branch_terms, sum_branch_terms_unwindowed,

@@ -5,6 +5,7 @@ use crate::budget;
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::receivers::heard_terms;
 use crate::echo::spectrum::sum_terms;
+use crate::echo::term_pool::give_terms;
 use crate::echo::LeafTerm;
 use crate::error::Result;
 use crate::fast::{fast_sum_terms, FastPlan, FastSonar};
@@ -59,17 +60,22 @@ pub fn simulate_heard(
             let rxs = place_receivers(sonar, pose);
             let cands = candidates_heard(scene, sonar, pose, &rxs, search);
             let terms = heard_terms(scene, sonar, pose, i, &rxs, &cands)?;
+            // The receivers' sums side by side: each is the same whatever runs beside it (its
+            // chunks are fixed), and one's serial steps (the transforms) overlap the other's
+            // spreading.
             terms
-                .iter()
+                .into_par_iter()
                 .map(|t| {
-                    let (re, im) = receiver_spectrum(sonar, method, plan.as_deref(), t);
+                    let (re, im) = receiver_spectrum(sonar, method, plan.as_deref(), &t);
+                    let count = t.len() as u64;
+                    give_terms(t);
                     let mut y = Vec::new();
                     if with_impulse {
                         y = budget::filled(n, 0.0, "the impulse response")?;
                         impulse_from_band(n, sonar.k0, &re, &im, &mut y);
                     }
                     check_finite(i, &re, &im, &y, sonar)?;
-                    Ok((re, im, y, t.len() as u64))
+                    Ok((re, im, y, count))
                 })
                 .collect::<Result<Heard>>()
         })
@@ -119,7 +125,9 @@ pub fn farthest_heard(
             let rxs = place_receivers(sonar, pose);
             let cands = candidates_heard(scene, sonar, pose, &rxs, search);
             let terms = heard_terms(scene, sonar, pose, i, &rxs, &cands)?;
-            Ok(terms.iter().flatten().fold(0.0f64, |a, t| a.max(t.range)))
+            let far = terms.iter().flatten().fold(0.0f64, |a, t| a.max(t.range));
+            terms.into_iter().for_each(give_terms);
+            Ok(far)
         })
         .collect()
 }
