@@ -39,7 +39,7 @@ pub mod term;
 pub mod term_pool;
 
 pub use branch::{
-    add_branch, branch_points, branch_term, sum_branch_terms, sum_branch_terms_unwindowed,
+    add_branch, branch_points, branch_term, heard_branch_term, sum_branch_terms, sum_branch_terms_unwindowed,
     BranchPoint, BranchTerm, PointForm,
 };
 pub(crate) use exact::cis_neg;
