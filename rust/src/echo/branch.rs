@@ -15,9 +15,9 @@
 //! checked, and evaluated bin by bin where a block fails.
 use crate::echo::exact::{accumulate_block, block_poly, phase_steps, CHEB_TOL};
 use crate::echo::prepared::Prepared;
+use crate::echo::receivers::heard_amplitude;
 use crate::echo::tables::{lanes, lanes_mut, BandTables, LANES, POLY_BLOCK, POLY_DEG};
 use crate::echo::term::leaf_amp;
-use crate::echo::receivers::heard_amplitude;
 use crate::lobe::{HeardPiece, PieceMember};
 use crate::physics::bistatic::lag_range;
 use crate::physics::branch::{fresnel_lag, sinc, CYLINDER_PSI};

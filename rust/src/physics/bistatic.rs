@@ -88,7 +88,14 @@ pub enum BistaticSight {
 /// the bistatic angle are those of the directions to that point, `cos(beta/2) = |b'|/2`. With
 /// `p_rx = p_tx` it is [`piece_sight`]'s point and tilt, and `cos(beta/2) = 1`, to rounding.
 #[inline]
-pub fn bistatic_piece_sight(p_tx: V3, p_rx: V3, c: V3, u: V3, a: f64, length: f64) -> BistaticSight {
+pub fn bistatic_piece_sight(
+    p_tx: V3,
+    p_rx: V3,
+    c: V3,
+    u: V3,
+    a: f64,
+    length: f64,
+) -> BistaticSight {
     match piece_sight(p_rx, c, u, a, length) {
         PieceSight::Inside => return BistaticSight::Inside,
         PieceSight::EndOn => return BistaticSight::Dark,
@@ -226,12 +233,22 @@ mod tests {
             reference,
             cos_half_bistatic,
             ..
-        } = bistatic_piece_sight([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [2.0, 0.0, 0.0], u, 0.1, 0.1)
+        } = bistatic_piece_sight(
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [2.0, 0.0, 0.0],
+            u,
+            0.1,
+            0.1,
+        )
         else {
             panic!("lit")
         };
         assert!((reference[0] - 1.9).abs() < 1e-15 && reference[1].abs() < 1e-15);
         let half = (1.9f64).atan2(1.0).sin(); // cos of half the angle 2 atan(1/1.9)
-        assert!((cos_half_bistatic - half).abs() < 1e-12, "{cos_half_bistatic} {half}");
+        assert!(
+            (cos_half_bistatic - half).abs() < 1e-12,
+            "{cos_half_bistatic} {half}"
+        );
     }
 }

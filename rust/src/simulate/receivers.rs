@@ -8,13 +8,13 @@ use crate::echo::receivers::heard_terms;
 use crate::echo::spectrum::sum_terms;
 use crate::echo::term_pool::give_terms;
 use crate::echo::LeafTerm;
+use crate::echo::{heard_branch_term, BranchTerm};
 use crate::error::Result;
 use crate::fast::{fast_sum_terms, FastPlan, FastSonar};
-use crate::echo::{heard_branch_term, BranchTerm};
 use crate::lobe::{branch_members_heard, candidates_heard, place_receivers, Search};
-use crate::simulate::scatter::wood_spectrum;
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
+use crate::simulate::scatter::wood_spectrum;
 use crate::simulate::{check_finite, cost_exact, cost_fast, Echoes, Method};
 use crate::sonar::Sonar;
 use rayon::prelude::*;
@@ -172,7 +172,10 @@ pub fn farthest_heard(
             let far = terms.iter().flatten().fold(0.0f64, |a, t| a.max(t.range));
             terms.into_iter().for_each(give_terms);
             let pieces = branch_members_heard(scene, sonar, pose, i, &rxs)?;
-            Ok(pieces.iter().flatten().fold(far, |a, p| a.max(p.heard.range())))
+            Ok(pieces
+                .iter()
+                .flatten()
+                .fold(far, |a, p| a.max(p.heard.range())))
         })
         .collect()
 }
