@@ -538,6 +538,34 @@ def _shading(
     return np.asarray(fl, dtype=np.float64), np.asarray(fp, dtype=np.float64)
 
 
+def _two_way_factor(tau: float, m_out: int, m_back: int) -> float:
+    """tau^(m_out + m_back) (docs/model.md §10), as (tau^2)^(s // 2), times tau for odd s."""
+    s = m_out + m_back
+    even = 1.0 if s < 2 else (tau * tau) ** (s // 2)
+    return even * tau if s % 2 else even
+
+
+def _heard_shading(
+    leaves: Leaves, sonar: Sonar, poses: Poses, i: int, at: np.ndarray, idx: np.ndarray
+) -> np.ndarray:
+    """For the leaves ``idx`` heard by the receiver at ``at`` in pose i, by brute force:
+    tau^(m_out + m_back), m_out the disks the open segment from the emitter to the leaf's
+    centre crosses, m_back those the segment from the receiver crosses (the leaf's own disk
+    apart)."""
+    sh = sonar.shading
+    if sh is None:
+        return np.ones(len(idx))
+    tx = poses.positions[i]
+    tau = sh.leaf_transmission
+    out = []
+    for j in idx:
+        c = leaves.centers[j]
+        m_out = _disk_crossings(leaves, tx, c - tx, int(j))
+        m_back = _disk_crossings(leaves, at, c - at, int(j))
+        out.append(_two_way_factor(tau, m_out, m_back))
+    return np.asarray(out, dtype=np.float64)
+
+
 def leaf_sights(scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True):
     """For each counting leaf of one pose (ascending index): the other leaf disks its ray
     crosses and whether a branch blocks it, by testing every leaf and branch."""
@@ -597,10 +625,10 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
                 raise ValueError(f"{name} {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
     n = cast(int, sonar.n_samples)
     if sonar.receivers is not None:
-        if branches is not None or sonar.shading is not None:
+        if branches is not None:
             raise ValueError(
-                "receivers at their own places hear leaves only: branches or shading with "
-                "receivers are not yet modelled"
+                "receivers at their own places hear leaves only: branches with receivers are "
+                "not yet modelled"
             )
         assert leaves is not None
         return _simulate_heard(leaves, sonar, poses, k0, k1, f, w)
@@ -649,16 +677,23 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
 def _simulate_heard(leaves: Leaves, sonar: Sonar, poses: Poses, k0, k1, f, w) -> Echoes:
     """Every receiver's echoes (docs/model.md §5a): the amplitude ``g S_tx S_rx L / (k r_tx
     r_rx)``, the phase ``-k (r_tx + r_rx) - psi``, absorption over ``r_tx + r_rx``, the
-    incidence from the bisector."""
+    incidence from the bisector; with shading, times tau^(m_out + m_back) (§10)."""
     n = cast(int, sonar.n_samples)
     n_rx = len(cast(tuple, sonar.receivers))
     spectra = np.zeros((len(poses), n_rx, len(f)), dtype=np.complex128)
     impulses = np.zeros((len(poses), n_rx, n))
     counts = np.zeros((len(poses), n_rx), dtype=np.int64)
+    n_shaded = np.zeros((len(poses), n_rx), dtype=np.int64)
+    rxs = cast(tuple, sonar.receivers)
     for i in range(len(poses)):
         for j, (mask, r_tx, e_tx, r_rx, e_rx, G) in enumerate(_heard(leaves, sonar, poses, i)):
             idx = np.flatnonzero(mask)
             counts[i, j] = idx.size
+            at = _receiver_position(poses, i, rxs[j].offset_m)
+            fl = _heard_shading(leaves, sonar, poses, i, at, idx)
+            n_shaded[i, j] = int((fl != 1.0).sum())
+            G = G.copy()
+            G[idx] = G[idx] * fl
             if idx.size:
                 beta = _bisector_incidence(e_tx[idx], e_rx[idx], leaves.normals[idx])
                 r = (r_tx[idx] + r_rx[idx]) / 2.0
@@ -677,6 +712,7 @@ def _simulate_heard(leaves: Leaves, sonar: Sonar, poses: Poses, k0, k1, f, w) ->
         n_leaves=counts,
         sonar=sonar,
         poses=poses,
+        n_shaded=n_shaded,
     )
 
 
