@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import batecho
-from batecho import Leaves, Poses, Receiver, Scene, Shading, Sonar, reference
+from batecho import Leaves, Poses, Receiver, Shading, Sonar, reference
 
 ORIGIN = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
 TAU = 0.6
@@ -30,7 +30,11 @@ TOL = 1e-10  # against the reference, as tests/test_receivers.py
 def clumps(rng, n, n_clumps=5, spread=0.4):
     """``n`` leaves in clumps 1.5-7 m in front of the origin: leaves shade each other."""
     centres = np.column_stack(
-        [rng.uniform(1.5, 7.0, n_clumps), rng.uniform(-1, 1, n_clumps), rng.uniform(-1, 1, n_clumps)]
+        [
+            rng.uniform(1.5, 7.0, n_clumps),
+            rng.uniform(-1, 1, n_clumps),
+            rng.uniform(-1, 1, n_clumps),
+        ]
     )
     c = centres[rng.integers(0, n_clumps, n)] + rng.uniform(-spread, spread, (n, 3))
     return Leaves(c, rng.normal(size=(n, 3)), rng.uniform(0.02, 0.05, n))
@@ -51,9 +55,7 @@ def assert_agrees_with_reference(leaves, sonar, pose, method="exact", tol=1e-12)
 def test_a_receiver_at_the_emitter_hears_the_monostatic_shaded_echo(method):
     leaves = clumps(np.random.default_rng(3), 600)
     mono = batecho.simulate(leaves, SHADED, ORIGIN, method=method)
-    heard = batecho.simulate(
-        leaves, SHADED.replace(receivers=(Receiver(),)), ORIGIN, method=method
-    )
+    heard = batecho.simulate(leaves, SHADED.replace(receivers=(Receiver(),)), ORIGIN, method=method)
     assert mono.n_shaded[0] > 50
     np.testing.assert_array_equal(heard.n_shaded[:, 0], mono.n_shaded)
     np.testing.assert_array_equal(heard.n_leaves[:, 0], mono.n_leaves)
@@ -104,7 +106,9 @@ def test_a_leaf_on_the_way_back_to_one_receiver_dims_the_echo_there_by_tau_once(
 def test_a_receiver_behind_a_leaf_hears_every_other_leaf_dimmed():
     rng = np.random.default_rng(11)
     n = 120
-    c = np.column_stack([rng.uniform(2, 6, n), rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n)])
+    c = np.column_stack(
+        [rng.uniform(2, 6, n), rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n)]
+    )
     normals = np.tile([1.0, 0.0, 0.0], (n, 1))
     # a 15 cm leaf 0.4 m in front of receiver 1, facing it: every ray back to it crosses
     # the leaf; the emitter's rays pass at least 0.2 m from it
