@@ -135,8 +135,8 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
                 cells.dedup();
             }
             for &(c0, c1) in &cells {
-                for pos in buf.start[c0] as usize..buf.start[c1] as usize {
-                    let segment = rays.segment[pos];
+                let (lo, hi) = (buf.start[c0] as usize, buf.start[c1] as usize);
+                for (pos, &segment) in rays.segment.iter().enumerate().take(hi).skip(lo) {
                     if blocked[pos].load(Ordering::Relaxed)
                         || segment == j
                         || (segment != u32::MAX
