@@ -7,7 +7,10 @@ the shaded pulse are timed side by side in one run (least of repeats; the machin
 and noisy, so compare within a run only). The issue's target: shading at most doubles the time
 of a fast pulse at 1e5 leaves.
 
-    python benches/bench_shading.py [--repeat 3] [--leaves 1e4 1e5 1e6]
+The second table times two ears (``Sonar.binaural``, 2 cm apart, shaded) against the one-ear
+shaded pulse, in the same scene and run: each ear's rays are cast from its own place.
+
+    python benches/bench_shading.py [--repeat 3] [--leaves 1e4 1e5 1e6] [--ears]
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--leaves", type=float, nargs="+", default=[1e4, 1e5, 1e6])
+    ap.add_argument("--ears", action="store_true", help="also time two shaded ears against one")
     args = ap.parse_args()
     pose = batecho.Poses([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]])
     plain = batecho.Sonar(beamwidth_deg=50.0, lobe="cone", cone_half_angle_deg=75.0)
@@ -61,6 +65,27 @@ def main() -> None:
             f"| {int(e0.n_leaves[0]):,} | {1e3 * t0:.1f} | {1e3 * t1:.1f} | {t1 / t0:.2f} "
             f"| {int(e1.n_shaded[0]):,} |"
         )
+    if args.ears:
+        ears = batecho.Sonar.binaural(
+            0.02,
+            ear_yaw_deg=0.0,
+            beamwidth_deg=50.0,
+            lobe="cone",
+            cone_half_angle_deg=75.0,
+            shading=batecho.Shading(),
+        )
+        print()
+        print("| leaves in the lobe | one ear shaded (ms) | two ears shaded (ms) | ratio |")
+        print("|---|---|---|---|")
+        for n in (int(x) for x in args.leaves):
+            scene = batecho.Scene(leaf_box(n))
+            t1, e1 = best_time(
+                partial(batecho.simulate, scene, shaded, pose, "fast", 1e-6), args.repeat
+            )
+            t2, _ = best_time(
+                partial(batecho.simulate, scene, ears, pose, "fast", 1e-6), args.repeat
+            )
+            print(f"| {int(e1.n_leaves[0]):,} | {1e3 * t1:.1f} | {1e3 * t2:.1f} | {t2 / t1:.2f} |")
 
 
 if __name__ == "__main__":

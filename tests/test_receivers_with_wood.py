@@ -2,7 +2,7 @@
 a receiver at the emitter with its pattern hears the monostatic branch echo, the Rust core
 equals the reference for random receivers with the hard cases (broadside, end-on, a receiver
 next to a branch), the fast method stays within tol, one and two threads give the same bits,
-mirroring the scene swaps the ears; shading with receivers is still refused by name."""
+mirroring the scene swaps the ears (with shading too: tests/test_receivers_wood_shading.py)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from hypothesis import given, note, settings
 from hypothesis import strategies as st
 
 import batecho
-from batecho import Beam, Branches, Leaves, Poses, Receiver, Scene, Shading, Sonar, reference
+from batecho import Beam, Branches, Leaves, Poses, Receiver, Scene, Sonar, reference
 
 LEAVES = Leaves([[3.0, 0.0, 0.0]], [[-1.0, 0.0, 0.0]], [0.03])
 TRUNK = Branches([[5.0, 0.0, -2.0]], [[5.0, 0.0, 2.0]], [0.1])
@@ -190,12 +190,6 @@ def test_a_branch_between_emitter_and_receiver_is_silent_and_one_beside_them_is_
     assert between.n_pieces.tolist() == [[0]] and beside.n_pieces[0, 0] > 0
 
 
-def test_two_ears_with_a_shading_sonar_are_refused_naming_both():
-    ears = Sonar.binaural(0.02, ear_yaw_deg=20, beamwidth_deg=40, shading=Shading())
-    with pytest.raises(ValueError, match="receivers.*shading"):
-        batecho.simulate(Scene(LEAVES), ears, POSE)
-
-
 def test_two_ears_hear_a_trunk_at_the_delay_of_their_paths():
     ears = Sonar.binaural(0.3, ear_yaw_deg=20, beamwidth_deg=40, window="rect")
     echo = batecho.simulate(Scene(LEAVES, branches=TRUNK), ears, POSE)
@@ -206,15 +200,3 @@ def test_two_ears_hear_a_trunk_at_the_delay_of_their_paths():
         r_rx = math.hypot(4.9, rx.offset_m[1])
         want = (4.9 + r_rx) / ears.sound_speed
         assert abs(echo.times[int(np.argmax(env[j]))] - want) <= 2.0 / ears.fs
-
-
-def test_a_dataset_spec_with_two_ears_and_shading_is_refused():
-    from batecho.dataset import DatasetSpec, SpecError
-
-    with pytest.raises(SpecError, match="ear_separation_m.*shading"):
-        DatasetSpec.from_dict(
-            {
-                "n_samples": 2,
-                "sonar": {"ear_separation_m": 0.02, "ear_yaw_deg": 20.0, "shading": True},
-            }
-        )

@@ -488,7 +488,7 @@ def _pieces_heard(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max:
     receiver; each piece lit from the emitter referred to the point that makes r_tx + r_rx
     least for the receiver (``_bistatic_sight``), and kept when it passes the receiver's lobe
     test (§5a) there. Per receiver: (segment, r_tx, r_rx, G, length, radius, cos and sin of
-    the tilt, cos(beta/2))."""
+    the tilt, cos(beta/2), reference point (n, 3))."""
     p = poses.positions[i]
     rxs = cast(tuple, sonar.receivers)
     tx_beam = cast(Beam, sonar.beam)
@@ -536,7 +536,7 @@ def _pieces_heard(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max:
                 one = Leaves(ref[None, :], np.array([[0.0, 0.0, 1.0]]), np.array([rad]))
                 mask, _, _, _, _, G = _heard(one, alone[k], poses, i)[0]
                 if mask[0]:
-                    rows[k].append((j, r_tx, r_rx, float(G[0]), pl, rad, cg, sg, cb))
+                    rows[k].append((j, r_tx, r_rx, float(G[0]), pl, rad, cg, sg, cb, ref))
     if too_close and sonar.too_close == "raise":
         j, dist = min(too_close)
         raise ValueError(
@@ -544,8 +544,12 @@ def _pieces_heard(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max:
             f"{sonar.min_range_m} m"
         )
     return [
-        tuple(
-            np.array([r[c] for r in rs], dtype=np.int64 if c == 0 else np.float64) for c in range(9)
+        (
+            *(
+                np.array([r[c] for r in rs], dtype=np.int64 if c == 0 else np.float64)
+                for c in range(9)
+            ),
+            np.array([r[9] for r in rs], dtype=np.float64).reshape(-1, 3),
         )
         for rs in rows
     ]
@@ -652,6 +656,50 @@ def _shading(
     return np.asarray(fl, dtype=np.float64), np.asarray(fp, dtype=np.float64)
 
 
+def _two_way_factor(tau: float, m_out: int, m_back: int) -> float:
+    """tau^(m_out + m_back) (docs/model.md §10), as (tau^2)^(s // 2), times tau for odd s."""
+    s = m_out + m_back
+    even = 1.0 if s < 2 else (tau * tau) ** (s // 2)
+    return even * tau if s % 2 else even
+
+
+def _heard_shading(
+    leaves: Leaves | None,
+    branches: Branches | None,
+    sonar: Sonar,
+    tx: np.ndarray,
+    at: np.ndarray,
+    leaf_idx: np.ndarray,
+    piece_seg: np.ndarray,
+    piece_ref: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """For the leaves ``leaf_idx`` and the pieces (segments ``piece_seg``, reference points
+    ``piece_ref`` (n, 3)) heard by the receiver at ``at`` from the emitter at ``tx``, by brute
+    force (docs/model.md §10): tau^(m_out + m_back), m_out the leaf disks the open segment from
+    the emitter to the leaf's centre (the piece's reference point) crosses, m_back those the
+    segment from the receiver crosses (a leaf's own disk apart), and 0 where a branch blocks
+    either (with ``branches_block``; a piece's own segment and those joined to it apart)."""
+    sh = sonar.shading
+    if sh is None:
+        return np.ones(len(leaf_idx)), np.ones(len(piece_seg))
+    tau = sh.leaf_transmission
+    joined = _joined(branches) if branches is not None else []
+
+    def factor(point: np.ndarray, own_leaf: int, spared: set[int]) -> float:
+        m = []
+        for origin in (tx, at):
+            w = point - origin
+            if sh.branches_block and branches is not None and _blocked(branches, origin, w, spared):
+                return 0.0
+            m.append(0 if leaves is None else _disk_crossings(leaves, origin, w, own_leaf))
+        return _two_way_factor(tau, m[0], m[1])
+
+    assert leaves is not None or len(leaf_idx) == 0
+    fl = [factor(cast(Leaves, leaves).centers[j], int(j), set()) for j in leaf_idx]
+    fp = [factor(piece_ref[q], -1, {int(g)} | joined[g]) for q, g in enumerate(piece_seg)]
+    return np.asarray(fl, dtype=np.float64), np.asarray(fp, dtype=np.float64)
+
+
 def leaf_sights(scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True):
     """For each counting leaf of one pose (ascending index): the other leaf disks its ray
     crosses and whether a branch blocks it, by testing every leaf and branch."""
@@ -714,11 +762,6 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
                 raise ValueError(f"{name} {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
     n = cast(int, sonar.n_samples)
     if sonar.receivers is not None:
-        if sonar.shading is not None:
-            raise ValueError(
-                "receivers at their own places hear leaves and branches unshaded: shading "
-                "with receivers is not yet modelled"
-            )
         return _simulate_heard(leaves, branches, sonar, poses, k0, k1, f, w)
     spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
     wood = np.zeros_like(spectra) if branches is not None else None
@@ -767,7 +810,8 @@ def _simulate_heard(
 ) -> Echoes:
     """Every receiver's echoes (docs/model.md §5a): the amplitude ``g S_tx S_rx L / (k r_tx
     r_rx)``, the phase ``-k (r_tx + r_rx) - psi``, absorption over ``r_tx + r_rx``, the
-    incidence from the bisector; with branches, each receiver's pieces (§9)."""
+    incidence from the bisector; with branches, each receiver's pieces (§9); with shading,
+    times tau^(m_out + m_back) (§10)."""
     n = cast(int, sonar.n_samples)
     n_rx = len(cast(tuple, sonar.receivers))
     spectra = np.zeros((len(poses), n_rx, len(f)), dtype=np.complex128)
@@ -775,16 +819,25 @@ def _simulate_heard(
     impulses = np.zeros((len(poses), n_rx, n))
     counts = np.zeros((len(poses), n_rx), dtype=np.int64)
     n_pieces = np.zeros((len(poses), n_rx), dtype=np.int64)
+    n_shaded = np.zeros((len(poses), n_rx), dtype=np.int64)
+    rxs = cast(tuple, sonar.receivers)
     k_top = 2.0 * np.pi * f[-1] / sonar.sound_speed
     for i in range(len(poses)):
         heard = _heard(leaves, sonar, poses, i) if leaves is not None else [None] * n_rx
         pieces = _pieces_heard(branches, sonar, poses, i, k_top) if branches else [None] * n_rx
         for j, (hd, pc) in enumerate(zip(heard, pieces, strict=True)):
+            idx = np.zeros(0, dtype=np.int64)
             if hd is not None:
                 mask, r_tx, e_tx, r_rx, e_rx, G = hd
                 idx = np.flatnonzero(mask)
                 counts[i, j] = idx.size
+            seg, ref = (pc[0], pc[9]) if pc is not None else (idx[:0], np.zeros((0, 3)))
+            at = _receiver_position(poses, i, rxs[j].offset_m)
+            fl, fp = _heard_shading(leaves, branches, sonar, poses.positions[i], at, idx, seg, ref)
+            n_shaded[i, j] = int((fl != 1.0).sum())
             if hd is not None and idx.size:
+                G = G.copy()
+                G[idx] = G[idx] * fl
                 leaves = cast(Leaves, leaves)
                 beta = _bisector_incidence(e_tx[idx], e_rx[idx], leaves.normals[idx])
                 r = (r_tx[idx] + r_rx[idx]) / 2.0
@@ -793,7 +846,7 @@ def _simulate_heard(
                     sonar, r, G[idx], beta, leaves.radii[idx], f, w, spread=spread
                 )
             if wood is not None and pc is not None:
-                _, pr_tx, pr_rx, pG, pl, pa, pcg, psg, pcb = pc
+                _, pr_tx, pr_rx, pG, pl, pa, pcg, psg, pcb, _ = pc
                 n_pieces[i, j] = pl.size
                 wood[i, j] = _wood_spectrum(
                     sonar,
@@ -803,7 +856,7 @@ def _simulate_heard(
                     pa,
                     pcg,
                     psg,
-                    np.ones(pl.size),
+                    fp,
                     f,
                     w,
                     bistatic=(pr_tx, pr_rx, pcb),
@@ -822,6 +875,7 @@ def _simulate_heard(
         poses=poses,
         wood_spectrum=wood,
         n_pieces=n_pieces,
+        n_shaded=n_shaded,
     )
 
 

@@ -25,7 +25,8 @@ use rayon::prelude::*;
 /// branches, the wood's share of the spectra `(p, M)` (empty without) and the number of
 /// counting branch pieces; with shading, the number of counting leaves it dims or silences.
 /// With `R` receivers of their own (`n_receivers = R > 0`), `(p, R, M)`, `(p, R, n)` and
-/// `(p, R)`, the wood's share `(p, R, M)` and the counting pieces `(p, R)` (no shading).
+/// `(p, R)`, the wood's share `(p, R, M)`, the counting pieces `(p, R)` and the shaded
+/// leaves `(p, R)`.
 pub struct Echoes {
     pub n_bins: usize,
     pub n_receivers: usize,
@@ -152,12 +153,6 @@ pub fn simulate(
         // pose runs that pose on the calling thread, where the BVH walk cannot split (see
         // `bvh_candidates`), and the walk is a large part of a pulse.
         return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method));
-    }
-    if !sonar.params.receivers.is_empty() && sonar.params.shading.is_some() {
-        return invalid(
-            "receivers at their own places hear leaves and branches unshaded: a sonar with \
-             shading is not yet supported with receivers (use shading=None, or no receivers)",
-        );
     }
     check_leaf_sizes(scene, sonar)?;
     scatter::check_branch_sizes(scene, sonar)?;

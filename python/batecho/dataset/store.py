@@ -12,7 +12,7 @@ Layout (Zarr format 3, consolidated metadata; opens with ``xarray.open_zarr``)::
       n_leaves, nearest_range_m, lobe_mean_radius_m (sample, pulse)     per-pulse labels
       receiver (receiver,)            with two ears: every per-pulse variable above gains
                                       a receiver dimension after pulse (0 left, 1 right)
-      n_shaded (sample, pulse)                  with sonar.shading
+      n_shaded (sample, pulse[, receiver])      with sonar.shading
       nearest_wood_m (sample, pulse), n_pieces (sample, pulse[, receiver])
                                                 with scene.forest.branches
       position, forward, up (sample, pulse, xyz) m / unit vectors        the poses
@@ -168,12 +168,12 @@ def schema(spec: DatasetSpec) -> list[Var]:
             "mean radius of the counting leaves (NaN: none counted)",
         ),
     ]
-    pulse = ("sample", "pulse")  # (two ears and shading are not combined)
+    pulse = ("sample", "pulse")  # (the pose, not the receiver: nearest_wood_m)
     if spec.sonar.shading:
         out.append(
             Var(
                 "n_shaded",
-                pulse,
+                sp,
                 "int32",
                 -1,
                 "1",

@@ -6,7 +6,7 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -45,8 +45,8 @@ class Echoes:
     and ``n_pieces`` (p, R).
     With branches in the scene: ``wood_spectrum`` (p, M), the branches' share of ``spectrum``
     (None without branches; :meth:`wood_impulse` is its impulse response), and ``n_pieces``
-    (p,), how many branch pieces counted. With shading: ``n_shaded`` (p,), how many counting
-    leaves it dimmed or silenced (zeros without shading).
+    (p,), how many branch pieces counted. With shading: ``n_shaded`` (p,), or (p, R) with
+    receivers, how many counting leaves it dimmed or silenced (zeros without shading).
     """
 
     spectrum: np.ndarray
@@ -65,9 +65,10 @@ class Echoes:
 
     def __post_init__(self):
         p = self.spectrum.shape[0]
-        for name in ("n_pieces", "n_shaded"):
-            if getattr(self, name) is None:
-                object.__setattr__(self, name, np.zeros(p, dtype=np.int64))
+        if self.n_pieces is None:
+            object.__setattr__(self, "n_pieces", np.zeros(p, dtype=np.int64))
+        if self.n_shaded is None:
+            object.__setattr__(self, "n_shaded", np.zeros(self.n_leaves.shape, dtype=np.int64))
 
     @property
     def ranges(self) -> np.ndarray:
@@ -99,7 +100,7 @@ class Echoes:
             receiver=int(j),
             wood_spectrum=None if self.wood_spectrum is None else self.wood_spectrum[:, j],
             n_pieces=None if self.n_pieces is None else self.n_pieces[:, j],
-            n_shaded=self.n_shaded,
+            n_shaded=cast(np.ndarray, self.n_shaded)[:, j],
         )
 
     def envelope(self) -> np.ndarray:

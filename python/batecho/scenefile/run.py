@@ -64,7 +64,8 @@ def setup_scenefile(sf: SceneFile) -> SimulationSetup:
     t0 = time.perf_counter()
     obj, leaves, pos = sf.build_scene(rng)
     t1 = time.perf_counter()
-    scene = Scene(leaves)
+    # ([scene] branches = true: the trees' woody skeletons echo and may block, §9-§10)
+    scene = obj.scene(branches=True) if sf.config["scene"].get("branches") else Scene(leaves)
     t2 = time.perf_counter()
     sonar = sf.build_sonar()
     n = sonar._provisional_n() if sonar.is_auto else int(sonar.n_samples)
@@ -219,6 +220,11 @@ def run_scenefile(
         }
         if oc["impulse"]:
             arrays["impulse"] = echoes.impulse
+        if echoes.wood_spectrum is not None:
+            arrays["wood_spectrum"] = echoes.wood_spectrum
+            arrays["n_pieces"] = echoes.n_pieces
+        if st.sonar.shading is not None:
+            arrays["n_shaded"] = echoes.n_shaded
         if echoes.n_receivers:
             arrays["receiver_offsets"] = np.array([r.offset_m for r in st.sonar.receivers or ()])
         if received is not None and call is not None:

@@ -8,6 +8,7 @@ and default, and the checks that fill in the defaults of a parsed file.
     [scene]                       # kind = "leaf_box" | "obj" | "tree" | "forest"
     kind = "forest"
     n_trees = 3                   # forest: the paper's IPP conditioned on 3 trees
+    branches = true               # tree, forest: trunks and branches echo (docs/model.md §9)
     [scene.tree]                  # parameters of batecho.trees.grow_tree
 
     [sonar]                       # any batecho.Sonar parameter
@@ -213,6 +214,9 @@ _SCENE = {
     "tree": _Opt("table", {}, doc="parameters of the tree model"),
     "variants": _Opt("int", doc="grow this many trees and reuse them (instancing)"),
     "scale_sd": _Opt("float", doc="tree sizes exp(scale_sd z), z ~ N(0, 1)"),
+    "branches": _Opt(
+        "bool", False, doc="the trees' trunks and branches echo and may block (tree, forest)"
+    ),
 }
 SCENE_KEYS_BY_KIND = {
     "leaf_box": {
@@ -224,8 +228,9 @@ SCENE_KEYS_BY_KIND = {
         "normal_angle_sd_deg",
     },
     "obj": {"path", "leaf_patterns", "up", "per", "scale", "offset"},
-    "tree": {"model", "position", "tree"},
+    "tree": {"model", "position", "tree", "branches"},
     "forest": {
+        "branches",
         "model",
         "positions",
         "n_trees",

@@ -51,13 +51,13 @@ type SimOut<'py> = (
     Bound<'py, PyArrayDyn<u64>>,
     Option<Bound<'py, PyArrayDyn<Complex64>>>,
     Bound<'py, PyArrayDyn<u64>>,
-    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArrayDyn<u64>>,
 );
 
 /// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,),
 /// wood spectrum (p, M) or None without branches, n_pieces (p,), n_shaded (p,))`; with `R`
 /// receivers of their own, the first three are `(p, R, M)`, `(p, R, n)` and `(p, R)`, the wood
-/// spectrum `(p, R, M)` and n_pieces `(p, R)`.
+/// spectrum `(p, R, M)`, n_pieces `(p, R)` and n_shaded `(p, R)`.
 /// `method` is "exact", "fast" or "auto" (the last two use `tol`); both are required, so that
 /// the defaults live in one place (`batecho.simulate`).
 #[pyfunction(name = "simulate")]
@@ -134,6 +134,9 @@ pub(crate) fn simulate_py<'py>(
     let counts = ArrayD::from_shape_vec(IxDyn(&lead), out.n_leaves)
         .expect("p * R counts")
         .into_pyarray(py);
+    let shaded = ArrayD::from_shape_vec(IxDyn(&lead), out.n_shaded)
+        .expect("p * R counts")
+        .into_pyarray(py);
     Ok((
         spec,
         imp,
@@ -142,7 +145,7 @@ pub(crate) fn simulate_py<'py>(
         ArrayD::from_shape_vec(IxDyn(&lead), out.n_pieces)
             .expect("p * R counts")
             .into_pyarray(py),
-        out.n_shaded.into_pyarray(py),
+        shaded,
     ))
 }
 

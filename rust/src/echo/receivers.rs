@@ -188,9 +188,11 @@ pub fn heard_members(
 }
 
 /// Per receiver, the counting leaves' stored indices and terms.
-type Heard2 = (Vec<Vec<u32>>, Vec<Vec<LeafTerm>>);
+pub type Heard2 = (Vec<Vec<u32>>, Vec<Vec<LeafTerm>>);
 
-fn heard_pass(
+/// Per receiver, the stored indices of the counting leaves and their terms, in the same
+/// order (that of [`heard_terms`]); the same test and errors.
+pub fn heard_pass(
     scene: &Scene,
     sonar: &Sonar,
     pose: &crate::physics::pose::Pose,

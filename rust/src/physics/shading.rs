@@ -16,9 +16,39 @@ pub fn shading_factor(tau: f64, crossings: u32, blocked: bool) -> f64 {
     }
 }
 
+/// The shading factor of a scatterer heard by a receiver of its own (docs/model.md §10):
+/// `m_out` leaf disks crossed on the way from the emitter, `m_back` on the way to the
+/// receiver, `tau^(m_out + m_back)`; 0 when a branch blocks either way. With `s = m_out +
+/// m_back` it is `(tau^2)^(s / 2)` (times `tau` for odd `s`), so that equal counts give
+/// [`shading_factor`]'s bits.
+#[inline]
+pub fn two_way_shading_factor(tau: f64, m_out: u32, m_back: u32, blocked: bool) -> f64 {
+    let s = m_out.saturating_add(m_back);
+    let even = shading_factor(tau, s / 2, blocked);
+    if s % 2 == 1 {
+        even * tau
+    } else {
+        even
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn two_ways_cost_tau_per_crossing_and_equal_counts_give_the_monostatic_bits() {
+        assert_eq!(two_way_shading_factor(0.5, 0, 0, false), 1.0);
+        assert_eq!(two_way_shading_factor(0.5, 1, 0, false), 0.5);
+        assert_eq!(two_way_shading_factor(0.5, 0, 3, false), 0.125);
+        assert_eq!(two_way_shading_factor(0.5, 2, 1, true), 0.0);
+        for m in [0, 1, 2, 7, 300] {
+            assert_eq!(
+                two_way_shading_factor(0.6, m, m, false).to_bits(),
+                shading_factor(0.6, m, false).to_bits()
+            );
+        }
+    }
 
     #[test]
     fn each_crossing_costs_tau_squared_and_a_branch_silences() {

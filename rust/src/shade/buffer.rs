@@ -117,15 +117,7 @@ impl Buffer {
             order: Vec::new(),
         };
         // counting sort of the targets by cell
-        let cells: Vec<u32> = at
-            .iter()
-            .map(|&(f, u, v)| {
-                let fc = &buf.faces[f];
-                let i = buf.coord(u, fc.u0).min(fc.nu - 1);
-                let j = buf.coord(v, fc.v0).min(fc.nv - 1);
-                (fc.first + j * fc.nu + i) as u32
-            })
-            .collect();
+        let cells: Vec<u32> = at.iter().map(|&a| buf.cell_at(a) as u32).collect();
         let mut start = vec![0u32; n_cells + 1];
         for &c in &cells {
             start[c as usize + 1] += 1;
@@ -142,6 +134,26 @@ impl Buffer {
         buf.start = start;
         buf.order = order;
         buf
+    }
+
+    /// The cell of a direction on face `f` at gnomonic `(u, v)`: the nearest cell of the
+    /// face's grid (`n_cells` for a face without one).
+    #[inline(always)]
+    fn cell_at(&self, (f, u, v): (usize, f64, f64)) -> usize {
+        let fc = &self.faces[f];
+        if fc.nu == 0 {
+            return self.n_cells;
+        }
+        let i = self.coord(u, fc.u0).min(fc.nu - 1);
+        let j = self.coord(v, fc.v0).min(fc.nv - 1);
+        fc.first + j * fc.nu + i
+    }
+
+    /// The cell of the direction `w` (`n_cells` for a face that holds no target), to order
+    /// occluders by the cells they reach.
+    #[inline]
+    pub(super) fn cell_of(&self, w: V3) -> usize {
+        self.cell_at(face_of(w))
     }
 
     /// The number of cells.

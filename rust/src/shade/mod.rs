@@ -11,14 +11,16 @@
 pub mod buffer;
 pub mod crossing;
 pub mod occluders;
+mod sweep;
 
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
 use buffer::Buffer;
-use crossing::{Cylinder, Disk};
+use crossing::Cylinder;
 use occluders::{occluding_leaves, occluding_segments, Cone};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use sweep::{leaf_chunk, Rays};
 
 /// A scatterer whose ray is cast: its point (a leaf's centre, a branch piece's reference
 /// point) and what it is, so that it is never its own occluder.
@@ -45,17 +47,6 @@ impl Target {
 pub struct Sight {
     pub crossings: u32,
     pub blocked: bool,
-}
-
-/// A target as the occluder loops read it, in cell order.
-#[derive(Clone, Copy)]
-struct Ray {
-    w: V3,
-    range: f64,
-    /// The target's own leaf (stored index), or `u32::MAX`.
-    leaf: u32,
-    /// The segment of a piece, or `u32::MAX`.
-    segment: u32,
 }
 
 /// Occluders per parallel task.
@@ -95,46 +86,14 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
         &w,
         2.0 * typical_angular_radius(scene, origin, &leaves, &segments),
     );
-    let rays: Vec<Ray> = buf
-        .order
-        .iter()
-        .map(|&i| {
-            let (leaf, segment) = match targets[i as usize] {
-                Target::Leaf { leaf, .. } => (leaf, u32::MAX),
-                Target::Piece { segment, .. } => (u32::MAX, segment),
-            };
-            Ray {
-                w: w[i as usize],
-                range: r[i as usize],
-                leaf,
-                segment,
-            }
-        })
-        .collect();
+    let rays = rays_in_order(targets, &buf, &w, &r);
     let crossings: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
     let blocked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
     let all = buf.n_cells();
-    leaves.par_chunks(OCCLUDER_CHUNK).for_each(|chunk| {
-        for &j in chunk {
-            let c = scene.centers.get(j as usize);
-            let v = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
-            let a = scene.radii[j as usize];
-            let disk = Disk::new(v, scene.normals.get(j as usize), a);
-            // (no crossing of a ray shorter than the disk's nearest distance)
-            let near = (dot(v, v).sqrt() - a) * (1.0 - 1e-12);
-            let mut visit = |c0: usize, c1: usize| {
-                for pos in buf.start[c0] as usize..buf.start[c1] as usize {
-                    let ray = &rays[pos];
-                    if ray.range > near && ray.leaf != j && disk.crossed_by(ray.w) {
-                        crossings[pos].fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-            };
-            if !buf.ball_cells(v, a, &mut visit) {
-                visit(0, all);
-            }
-        }
-    });
+    let leaves = by_cell(scene, origin, &buf, &leaves);
+    leaves
+        .par_chunks(OCCLUDER_CHUNK)
+        .for_each(|chunk| leaf_chunk(scene, origin, &buf, &rays, chunk, &crossings));
     segments.par_chunks(OCCLUDER_CHUNK / 8).for_each(|chunk| {
         let mut cells: Vec<(usize, usize)> = Vec::new();
         for &j in chunk {
@@ -176,16 +135,16 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
                 cells.dedup();
             }
             for &(c0, c1) in &cells {
-                for pos in buf.start[c0] as usize..buf.start[c1] as usize {
-                    let ray = &rays[pos];
+                let (lo, hi) = (buf.start[c0] as usize, buf.start[c1] as usize);
+                for (pos, &segment) in rays.segment.iter().enumerate().take(hi).skip(lo) {
                     if blocked[pos].load(Ordering::Relaxed)
-                        || ray.segment == j
-                        || (ray.segment != u32::MAX
-                            && br.joined_to(ray.segment as usize).binary_search(&j).is_ok())
+                        || segment == j
+                        || (segment != u32::MAX
+                            && br.joined_to(segment as usize).binary_search(&j).is_ok())
                     {
                         continue;
                     }
-                    if cyl.crossed_by(ray.w) {
+                    if cyl.crossed_by(rays.w(pos)) {
                         blocked[pos].store(true, Ordering::Relaxed);
                     }
                 }
@@ -200,6 +159,59 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
         };
     }
     out
+}
+
+/// The leaves `leaves` (stored indices) ordered by the cell of their centres' directions (a
+/// counting sort, stable), so that the occluders of one task reach the same rows of cells and
+/// find their targets in cache.
+fn by_cell(scene: &Scene, origin: V3, buf: &Buffer, leaves: &[u32]) -> Vec<u32> {
+    let cells: Vec<u32> = leaves
+        .par_iter()
+        .map(|&j| {
+            let c = scene.centers.get(j as usize);
+            buf.cell_of([c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]]) as u32
+        })
+        .collect();
+    let mut start = vec![0u32; buf.n_cells() + 2];
+    for &c in &cells {
+        start[c as usize + 1] += 1;
+    }
+    for c in 0..start.len() - 1 {
+        start[c + 1] += start[c];
+    }
+    let mut out = vec![0u32; leaves.len()];
+    for (&j, &c) in leaves.iter().zip(&cells) {
+        out[start[c as usize] as usize] = j;
+        start[c as usize] += 1;
+    }
+    out
+}
+
+/// The targets' rays in the buffer's order.
+fn rays_in_order(targets: &[Target], buf: &Buffer, w: &[V3], r: &[f64]) -> Rays {
+    let n = targets.len();
+    let mut rays = Rays {
+        x: Vec::with_capacity(n),
+        y: Vec::with_capacity(n),
+        z: Vec::with_capacity(n),
+        range: Vec::with_capacity(n),
+        leaf: Vec::with_capacity(n),
+        segment: Vec::with_capacity(n),
+    };
+    for &i in &buf.order {
+        let i = i as usize;
+        let (leaf, segment) = match targets[i] {
+            Target::Leaf { leaf, .. } => (leaf, u32::MAX),
+            Target::Piece { segment, .. } => (u32::MAX, segment),
+        };
+        rays.x.push(w[i][0]);
+        rays.y.push(w[i][1]);
+        rays.z.push(w[i][2]);
+        rays.range.push(r[i]);
+        rays.leaf.push(leaf);
+        rays.segment.push(segment);
+    }
+    rays
 }
 
 /// The median angular radius (rad) of a sample of the occluders seen from `origin`: leaves'

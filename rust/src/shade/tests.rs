@@ -1,4 +1,5 @@
 //! The light buffer's sights against brute force: every occluder tested against every ray.
+use super::crossing::Disk;
 use super::*;
 use crate::scene::Branches;
 use crate::test_util::uniforms;
