@@ -17,6 +17,7 @@ use crate::physics::shading::shading_factor;
 use crate::scene::Scene;
 use crate::shade::{cast, Target};
 use crate::sonar::Sonar;
+use rayon::prelude::*;
 
 /// One pose's echo: the windowed band spectrum, the wood's share of it (empty without
 /// branches), and the numbers of counting leaves, counting branch pieces, and counting leaves
@@ -230,14 +231,17 @@ pub fn pose_echo(
             let (re, im, n) = leaf_pose(scene, sonar, plan, method, pose, pose_index, cands)?;
             (re, im, n, 0)
         } else {
-            let mut terms: Vec<LeafTerm> = Vec::with_capacity(mem.len());
-            for (mb, &f) in mem.iter().zip(leaf_f) {
-                if f != 0.0 {
+            // (in parallel; the collected list keeps the members' order)
+            let terms: Vec<LeafTerm> = mem
+                .par_iter()
+                .zip(leaf_f.par_iter())
+                .filter(|(_, &f)| f != 0.0)
+                .map(|(mb, &f)| {
                     let mut t = leaf_term(sonar, scene, mb);
                     t.amp *= f;
-                    terms.push(t);
-                }
-            }
+                    t
+                })
+                .collect();
             let (re, im) = leaf_terms_spectrum(sonar, plan, &terms);
             (re, im, mem.len() as u64, n_shaded)
         }
