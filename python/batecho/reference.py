@@ -538,32 +538,22 @@ def _shading(
     return np.asarray(fl, dtype=np.float64), np.asarray(fp, dtype=np.float64)
 
 
-def _two_way_factor(tau: float, m_out: int, m_back: int) -> float:
-    """tau^(m_out + m_back) (docs/model.md §10), as (tau^2)^(s // 2), times tau for odd s."""
-    s = m_out + m_back
-    even = 1.0 if s < 2 else (tau * tau) ** (s // 2)
-    return even * tau if s % 2 else even
-
-
-def _heard_shading(
-    leaves: Leaves, sonar: Sonar, poses: Poses, i: int, at: np.ndarray, idx: np.ndarray
-) -> np.ndarray:
-    """For the leaves ``idx`` heard by the receiver at ``at`` in pose i, by brute force:
-    tau^(m_out + m_back), m_out the disks the open segment from the emitter to the leaf's
-    centre crosses, m_back those the segment from the receiver crosses (the leaf's own disk
-    apart)."""
-    sh = sonar.shading
-    if sh is None:
+def _heard_shading(leaves: Leaves, sonar: Sonar, tx: np.ndarray, at: np.ndarray, idx) -> np.ndarray:
+    """For the leaves ``idx`` heard by the receiver at ``at`` from the emitter at ``tx``, by
+    brute force: tau^s, s = m_out + m_back, the disks crossed by the open segments from the
+    emitter and from the receiver to the leaf's centre (its own apart), as (tau^2)^(s // 2),
+    times tau for odd s."""
+    if sonar.shading is None:
         return np.ones(len(idx))
-    tx = poses.positions[i]
-    tau = sh.leaf_transmission
-    out = []
-    for j in idx:
-        c = leaves.centers[j]
-        m_out = _disk_crossings(leaves, tx, c - tx, int(j))
-        m_back = _disk_crossings(leaves, at, c - at, int(j))
-        out.append(_two_way_factor(tau, m_out, m_back))
-    return np.asarray(out, dtype=np.float64)
+    tau = sonar.shading.leaf_transmission
+    c = leaves.centers
+    s = [
+        _disk_crossings(leaves, tx, c[j] - tx, j) + _disk_crossings(leaves, at, c[j] - at, j)
+        for j in idx
+    ]
+    return np.array(
+        [(1.0 if k < 2 else (tau * tau) ** (k // 2)) * (tau if k % 2 else 1.0) for k in s]
+    )
 
 
 def leaf_sights(scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True):
@@ -690,7 +680,7 @@ def _simulate_heard(leaves: Leaves, sonar: Sonar, poses: Poses, k0, k1, f, w) ->
             idx = np.flatnonzero(mask)
             counts[i, j] = idx.size
             at = _receiver_position(poses, i, rxs[j].offset_m)
-            fl = _heard_shading(leaves, sonar, poses, i, at, idx)
+            fl = _heard_shading(leaves, sonar, poses.positions[i], at, idx)
             n_shaded[i, j] = int((fl != 1.0).sum())
             G = G.copy()
             G[idx] = G[idx] * fl
