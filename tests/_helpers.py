@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 
 import batecho
@@ -35,3 +39,12 @@ def kinked_leaf_at_the_top(
     c = 2.0 * np.pi * sonar.freqs[sonar.n_bins - live] / sonar.sound_speed * radius
     beta = (np.pi / 2) / (0.3999 * c**-0.9065 + 0.9979) + 1e-12
     return batecho.Leaves([[r, 0.0, 0.0]], [[np.cos(beta), np.sin(beta), 0.0]], [radius])
+
+
+def run_script_with_threads(script: str, threads: int, path) -> dict:
+    """Run ``script`` (which saves an NPZ at ``sys.argv[1]``) in a child process with
+    ``RAYON_NUM_THREADS=threads``, and return the saved arrays by name."""
+    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+    subprocess.run([sys.executable, "-c", script, str(path)], env=env, check=True)
+    with np.load(path) as f:
+        return {k: f[k] for k in f.files}

@@ -7,14 +7,11 @@ tol; results do not depend on the number of threads."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
 import pytest
-from _helpers import rel_err
+from _helpers import rel_err, run_script_with_threads
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -186,10 +183,7 @@ SCRIPT = textwrap.dedent(
 
 
 def run(threads: int, path) -> dict:
-    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
-    subprocess.run([sys.executable, "-c", SCRIPT, str(path)], env=env, check=True)
-    with np.load(path) as f:
-        return {k: f[k] for k in f.files}
+    return run_script_with_threads(SCRIPT, threads, path)
 
 
 def test_shading_with_two_ears_is_bit_identical_with_one_and_two_threads(tmp_path):

@@ -7,14 +7,11 @@ method stays within tol; results do not depend on the number of threads."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
 import pytest
-from _helpers import frame_points, rel_err
+from _helpers import frame_points, rel_err, run_script_with_threads
 from _strategies import cases
 from hypothesis import given
 from hypothesis import strategies as st
@@ -283,10 +280,7 @@ SCRIPT = textwrap.dedent(
 
 
 def run(threads: int, path) -> dict:
-    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
-    subprocess.run([sys.executable, "-c", SCRIPT, str(path)], env=env, check=True)
-    with np.load(path) as f:
-        return {k: f[k] for k in f.files}
+    return run_script_with_threads(SCRIPT, threads, path)
 
 
 def test_branches_and_shading_are_bit_identical_with_one_and_two_threads(tmp_path):
