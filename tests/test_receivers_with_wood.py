@@ -190,6 +190,13 @@ def test_a_branch_between_emitter_and_receiver_is_silent_and_one_beside_them_is_
     assert between.n_pieces.tolist() == [[0]] and beside.n_pieces[0, 0] > 0
 
 
+def test_a_receiver_inside_a_branch_is_refused_naming_the_receiver():
+    sonar = Sonar(receivers=(Receiver(), Receiver((0.0, 0.5, 0.0))))
+    trunk = Branches([[0.0, 0.5, -1.0]], [[0.0, 0.5, 1.0]], [0.1])
+    with pytest.raises(ValueError, match="branch 0 is .* from receiver 1 of pose 0"):
+        batecho.simulate(Scene(None, branches=trunk), sonar, POSE, min_clearance_m=0.0)
+
+
 def test_two_ears_with_a_shading_sonar_are_refused_naming_both():
     ears = Sonar.binaural(0.02, ear_yaw_deg=20, beamwidth_deg=40, shading=Shading())
     with pytest.raises(ValueError, match="receivers.*shading"):
