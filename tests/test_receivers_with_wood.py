@@ -190,6 +190,13 @@ def test_a_branch_between_emitter_and_receiver_is_silent_and_one_beside_them_is_
     assert between.n_pieces.tolist() == [[0]] and beside.n_pieces[0, 0] > 0
 
 
+def test_a_receiver_inside_a_branch_is_refused_naming_the_receiver():
+    sonar = Sonar(receivers=(Receiver(), Receiver((0.0, 0.5, 0.0))))
+    trunk = Branches([[0.0, 0.5, -1.0]], [[0.0, 0.5, 1.0]], [0.1])
+    with pytest.raises(ValueError, match="branch 0 is .* from receiver 1 of pose 0"):
+        batecho.simulate(Scene(None, branches=trunk), sonar, POSE, min_clearance_m=0.0)
+
+
 def test_two_ears_hear_a_trunk_at_the_delay_of_their_paths():
     ears = Sonar.binaural(0.3, ear_yaw_deg=20, beamwidth_deg=40, window="rect")
     echo = batecho.simulate(Scene(LEAVES, branches=TRUNK), ears, POSE)

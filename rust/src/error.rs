@@ -24,6 +24,15 @@ pub enum Error {
         range: f64,
         min_range: f64,
     },
+    /// A branch's surface is closer to a receiver of its own than `min_range` (or the
+    /// receiver lies inside it: `range <= 0`).
+    BranchTooCloseToReceiver {
+        pose: usize,
+        receiver: usize,
+        branch: usize,
+        range: f64,
+        min_range: f64,
+    },
     /// A branch's surface is closer to a pulse position than `min_range` (or the pulse lies
     /// inside it: `range <= 0`).
     BranchTooClose {
@@ -54,6 +63,13 @@ impl fmt::Display for Error {
                 "leaf {leaf} is {range:.3e} m from receiver {receiver} of pose {pose}, closer than \
                  min_range_m = {min_range} m; the far-field echo model does not hold there (move \
                  the receiver or the pose, lower min_range_m, or pass too_close=\"skip\")"
+            ),
+            Error::BranchTooCloseToReceiver { pose, receiver, branch, range, min_range } => write!(
+                f,
+                "branch {branch} is {range:.3e} m from receiver {receiver} of pose {pose} (inside \
+                 it where negative or zero), closer than min_range_m = {min_range} m; the \
+                 far-field echo model does not hold there (move the receiver or the pose, lower \
+                 min_range_m, or pass too_close=\"skip\" to leave such pieces out)"
             ),
             Error::BranchTooClose { pose, branch, range, min_range } if *range <= 0.0 => write!(
                 f,

@@ -33,6 +33,9 @@ pub struct HeardPiece {
     pub cos_half_bistatic: f64,
 }
 
+/// A too-close piece: its segment, the distance, the receiver (None: the emitter).
+type Close = (usize, f64, Option<usize>);
+
 /// Segments per parallel task.
 const SEGMENT_CHUNK: usize = 256;
 
@@ -45,7 +48,7 @@ fn narrowest_sigma(sonar: &Sonar, rxs: &[PlacedReceiver]) -> f64 {
 }
 
 /// Per receiver, the pieces of segment `i` that count, appended to `out[j]`; the first
-/// too-close one (segment, distance) into `too_close`.
+/// too-close one (segment, distance, the receiver or None for the emitter) into `too_close`.
 fn segment_pieces_heard(
     scene: &Scene,
     sonar: &Sonar,
@@ -53,7 +56,7 @@ fn segment_pieces_heard(
     rxs: &[PlacedReceiver],
     i: usize,
     out: &mut [Vec<HeardPiece>],
-    too_close: &mut Option<(usize, f64)>,
+    too_close: &mut Option<Close>,
 ) -> Result<()> {
     let br = &scene.branches;
     let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
@@ -87,9 +90,9 @@ fn segment_pieces_heard(
     }
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let (u, piece_len) = (br.axes[i], length / n as f64);
-    let mut note_close = |r: f64| {
+    let mut note_close = |r: f64, who: Option<usize>| {
         if too_close.is_none() {
-            *too_close = Some((i, r));
+            *too_close = Some((i, r, who));
         }
     };
     for k in 0..n {
@@ -97,7 +100,7 @@ fn segment_pieces_heard(
         let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
         match piece_sight(pose.position, c, u, radius, piece_len) {
             PieceSight::Inside => {
-                note_close(near_tx.min(0.0));
+                note_close(near_tx.min(0.0), None);
                 continue;
             }
             PieceSight::EndOn => continue,
@@ -113,14 +116,14 @@ fn segment_pieces_heard(
             } = sight
             else {
                 if sight == BistaticSight::Inside {
-                    note_close(0.0);
+                    note_close(0.0, Some(j));
                 }
                 continue;
             };
             let tx = match emitter_side(sonar, pose, reference) {
                 Ok(tx) => tx,
                 Err(r) => {
-                    note_close(r);
+                    note_close(r, None);
                     continue;
                 }
             };
@@ -135,7 +138,7 @@ fn segment_pieces_heard(
                     sin_gamma,
                     cos_half_bistatic,
                 }),
-                HeardDecision::TooClose(r) => note_close(r),
+                HeardDecision::TooClose(r) => note_close(r, Some(j)),
                 HeardDecision::Out => {}
             }
         }
@@ -161,7 +164,7 @@ pub fn branch_members_heard(
     if n == 0 {
         return Ok(out);
     }
-    type Part = (Vec<Vec<HeardPiece>>, Option<(usize, f64)>);
+    type Part = (Vec<Vec<HeardPiece>>, Option<Close>);
     let parts: Vec<Result<Part>> = (0..n.div_ceil(SEGMENT_CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -175,12 +178,22 @@ pub fn branch_members_heard(
         .collect();
     for part in parts {
         let (mine, close) = part?;
-        if let (Some((branch, range)), TooClose::Error) = (close, sonar.params.too_close) {
-            return Err(Error::BranchTooClose {
-                pose: pose_index,
-                branch,
-                range,
-                min_range: sonar.params.min_range,
+        if let (Some((branch, range, who)), TooClose::Error) = (close, sonar.params.too_close) {
+            let (pose, min_range) = (pose_index, sonar.params.min_range);
+            return Err(match who {
+                None => Error::BranchTooClose {
+                    pose,
+                    branch,
+                    range,
+                    min_range,
+                },
+                Some(receiver) => Error::BranchTooCloseToReceiver {
+                    pose,
+                    receiver,
+                    branch,
+                    range,
+                    min_range,
+                },
             });
         }
         for (o, m) in out.iter_mut().zip(mine) {
