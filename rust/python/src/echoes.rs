@@ -14,7 +14,7 @@ use crate::scene::PyScene;
 use crate::sonar::PySonar;
 use crate::{rows3, to_py};
 
-fn poses_from(
+pub(crate) fn poses_from(
     positions: &PyReadonlyArray2<'_, f64>,
     forward: &PyReadonlyArray2<'_, f64>,
     up: &PyReadonlyArray2<'_, f64>,
@@ -35,12 +35,24 @@ fn poses_from(
         .collect()
 }
 
-fn search_from(s: &str) -> PyResult<Search> {
+pub(crate) fn search_from(s: &str) -> PyResult<Search> {
     match s {
         "bvh" => Ok(Search::Bvh),
         "brute_force" => Ok(Search::BruteForce),
         other => Err(PyValueError::new_err(format!(
             "search must be 'bvh' or 'brute_force', got {other:?}"
+        ))),
+    }
+}
+
+/// The method named `method` ("exact", "fast" or "auto"), the last two with `tol`.
+pub(crate) fn method_from(method: &str, tol: f64) -> PyResult<simulate::Method> {
+    match method {
+        "exact" => Ok(simulate::Method::Exact),
+        "fast" => Ok(simulate::Method::Fast { tol }),
+        "auto" => Ok(simulate::Method::Auto { tol }),
+        other => Err(PyValueError::new_err(format!(
+            "method must be 'exact', 'fast' or 'auto', got {other:?}"
         ))),
     }
 }
@@ -95,16 +107,7 @@ pub(crate) fn simulate_py<'py>(
 ) -> PyResult<SimOut<'py>> {
     let poses = poses_from(&positions, &forward, &up, &left)?;
     let search = search_from(search)?;
-    let method = match method {
-        "exact" => simulate::Method::Exact,
-        "fast" => simulate::Method::Fast { tol },
-        "auto" => simulate::Method::Auto { tol },
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "method must be 'exact', 'fast' or 'auto', got {other:?}"
-            )))
-        }
-    };
+    let method = method_from(method, tol)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let poses_len = poses.len();
     let out = py
