@@ -82,3 +82,44 @@ def test_one_receivers_echoes_are_the_slice_of_its_axis(sweep):
     assert list(ds["receiver"].values) == ["right"]
     with pytest.raises(ValueError, match="out of range"):
         e.for_receiver(2)
+
+
+@pytest.fixture(scope="module")
+def one_ear_deaf():
+    """Two pulses: the first hears a leaf beside the left ear only (outside the right ear's
+    cone), the second a leaf straight ahead with both ears."""
+    leaves = Leaves(
+        [[1.0, 0.45, 0.0], [-3.0, 0.0, 0.0]], [[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]], [0.02, 0.02]
+    )
+    poses = Poses(np.zeros((2, 3)), [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    sonar = Sonar.binaural(1.0, 0.0, lobe="cone", cone_half_angle_deg=30.0)
+    e = batecho.simulate(leaves, sonar, poses)
+    assert e.n_leaves.tolist() == [[1, 0], [1, 1]]
+    return e
+
+
+def test_the_interaural_figure_warns_naming_the_ear_that_hears_nothing(one_ear_deaf):
+    import matplotlib.pyplot as plt
+
+    from batecho.outputs.binaural import plot_interaural_differences
+
+    with pytest.warns(UserWarning, match=r"1 of 2 pulses .*pulses 0; silent: the right ear at 1"):
+        fig = plot_interaural_differences(one_ear_deaf)
+    plt.close(fig)
+
+
+def test_the_interaural_figure_draws_the_heard_pulses_and_marks_the_silent_ones(one_ear_deaf):
+    import matplotlib.pyplot as plt
+
+    from batecho.outputs.binaural import plot_interaural_differences
+
+    with pytest.warns(UserWarning):
+        fig = plot_interaural_differences(one_ear_deaf)
+    for ax in fig.axes[:2]:
+        points = [ln for ln in ax.lines if ln.get_marker() == "o"]
+        assert [list(ln.get_xdata()) for ln in points] == [[1.0]]
+        assert np.all(np.isfinite(points[0].get_ydata()))
+        marks = [ln for ln in ax.lines if ln.get_label() == "right ear hears nothing"]
+        assert [list(ln.get_xdata()) for ln in marks] == [[0.0]]
+    assert any("hears nothing" in t.get_text() for t in fig.texts)
+    plt.close(fig)

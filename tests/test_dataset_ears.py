@@ -92,3 +92,28 @@ def test_one_ear_specs_keep_their_canonical_form():
 def test_bad_ear_and_call_specs_are_refused_by_key(changes, match):
     with pytest.raises(SpecError, match=match):
         ears_spec(**changes)
+
+
+def test_two_ears_in_a_forest_with_branches_store_each_ears_pieces(tmp_path):
+    spec = ears_spec(
+        **{
+            "n_samples": 2,
+            "output.chunk_size": 1,
+            "scene.kind": "forest",
+            "scene.forest.intensity": "homogeneous",
+            "scene.forest.intensity_scale": 0.05,
+            "scene.forest.window_m": [0.0, 10.0, 0.0, 10.0],
+            "scene.forest.variants": 1,
+            "scene.forest.tree_params": {"trunk_height": {"uniform": [3.0, 5.0]}},
+            "scene.forest.branches": True,
+            "poses.altitude_m": 3.0,
+            "poses.circle_radius_m": 6.2,
+        }
+    )
+    generate(spec, tmp_path / "wood.zarr", workers=1, progress=False)
+    ds = open_dataset(tmp_path / "wood.zarr")
+    assert ds["n_pieces"].dims == ("sample", "pulse", "receiver")
+    assert ds["nearest_wood_m"].dims == ("sample", "pulse")
+    s = draw_sample(spec, 1)
+    assert np.array_equal(ds["n_pieces"].values[1], s.echoes.n_pieces)
+    assert ds["n_pieces"].values.sum() > 0

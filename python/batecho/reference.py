@@ -414,9 +414,16 @@ def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float
     return (np.asarray(seg, dtype=np.int64)[keep], pts[keep], r[keep], G[keep], *arr)
 
 
-def _wood_spectrum(sonar: Sonar, r, G, length, a, cg, sg, factor, f, w) -> np.ndarray:
+def _wood_spectrum(
+    sonar: Sonar, r, G, length, a, cg, sg, factor, f, w, bistatic=None
+) -> np.ndarray:
     """The branch pieces' windowed band spectrum: amplitude g G f(k) / r^2 times the shading
-    factor (and absorption), phase -2 k (r + l^2 cos^2(gamma) / (24 r)) + pi/4."""
+    factor (and absorption), phase -2 k (r + l^2 cos^2(gamma) / (24 r)) + pi/4.
+
+    Heard by a receiver of its own (``bistatic = (r_tx, r_rx, cos(beta/2))``, docs/model.md
+    §9): ``r`` is the delay range (r_tx + r_rx)/2, the spreading r_tx r_rx, the factor
+    f(k cos(beta/2)) with gamma from the bisector, and the Fresnel lag's range the harmonic
+    mean 2 r_tx r_rx / (r_tx + r_rx)."""
     v = sonar.sound_speed
     k = 2.0 * np.pi * f / v
     Y = np.zeros(f.shape, dtype=np.complex128)
@@ -425,16 +432,123 @@ def _wood_spectrum(sonar: Sonar, r, G, length, a, cg, sg, factor, f, w) -> np.nd
         atm = sonar.absorption
         alpha = iso9613_alpha_db_per_m(f, atm.temperature_c, atm.relative_humidity, atm.pressure_pa)
     for q in range(len(r)):
-        A = sonar.gain * G[q] * factor[q] * _cylinder_po(k, a[q], length[q], cg[q], sg[q])
+        spread, k_eff, r_lag = r[q] ** 2, k, r[q]
+        if bistatic is not None:
+            r_tx, r_rx, cb = (x[q] for x in bistatic)
+            spread, k_eff, r_lag = r_tx * r_rx, k * cb, 2.0 * r_tx * r_rx / (r_tx + r_rx)
+        A = sonar.gain * G[q] * factor[q] * _cylinder_po(k_eff, a[q], length[q], cg[q], sg[q])
         if sonar.spreading:
-            A = A / r[q] ** 2
+            A = A / spread
         if alpha is not None:
             A = A * 10.0 ** (-alpha * 2.0 * r[q] / 20.0)
         # the phase's range: the reference point's plus the piece's mean Fresnel lag
         # l^2 cos^2(gamma) / (24 r) (docs/model.md §9)
-        cycles = f * (2.0 * (r[q] + length[q] * length[q] * cg[q] * cg[q] / (24.0 * r[q])) / v)
+        lag = length[q] * length[q] * cg[q] * cg[q] / (24.0 * r_lag)
+        cycles = f * (2.0 * (r[q] + lag) / v)
         Y += A * np.exp(1j * (-2.0 * np.pi * (cycles - np.round(cycles)) + np.pi / 4.0))
     return w * Y
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / math.sqrt(float(_dot(v, v)))
+
+
+def _bistatic_sight(p_tx, p_rx, c, u, a: float, pl: float):
+    """A piece (centre c, unit axis u, radius a, length pl) lit from the emitter at p_tx, as
+    the receiver at p_rx hears it (docs/model.md §9): None when no specular point is lit for
+    both, "inside" when the receiver is inside it, else the reference point c - a w/|w| (w the
+    part of b = e_tx + e_rx across the axis, e the unit directions to c), cos and sin of the
+    tilt from the bisector's broadside and cos(beta/2) of the bistatic angle, all from the
+    directions to the reference point."""
+    v = c - p_rx
+    sv = float(_dot(v, u))
+    wr = v - sv * u
+    if not math.sqrt(float(_dot(wr, wr))) > a:
+        return "inside" if abs(sv) <= 0.5 * pl else None
+    b = _unit(c - p_tx) + _unit(c - p_rx)
+    if not math.sqrt(float(_dot(b, b))) >= FORWARD_SCATTER_B:
+        return None
+    w = b - float(_dot(b, u)) * u
+    rho = math.sqrt(float(_dot(w, w)))
+    if not rho > 0.0:
+        return None
+    ref = c - (a / rho) * w
+    if not (float(_dot(ref - p_tx, w)) > 0.0 and float(_dot(ref - p_rx, w)) > 0.0):
+        return None  # the two on opposite sides of the surface: forward scattering
+    bb = _unit(ref - p_tx) + _unit(ref - p_rx)
+    nb = math.sqrt(float(_dot(bb, bb)))
+    sb = float(_dot(bb, u))
+    h = bb - sb * u
+    return ref, math.sqrt(float(_dot(h, h))) / nb, abs(sb) / nb, min(0.5 * nb, 1.0)
+
+
+def _pieces_heard(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float):
+    """For each receiver of pose i, its counting branch pieces (docs/model.md §9): each
+    segment cut once for all receivers at its nearest distance from the emitter or any
+    receiver; each piece lit from the emitter referred to the point that makes r_tx + r_rx
+    least for the receiver (``_bistatic_sight``), and kept when it passes the receiver's lobe
+    test (§5a) there. Per receiver: (segment, r_tx, r_rx, G, length, radius, cos and sin of
+    the tilt, cos(beta/2))."""
+    p = poses.positions[i]
+    rxs = cast(tuple, sonar.receivers)
+    tx_beam = cast(Beam, sonar.beam)
+    beams = [tx_beam] + [tx_beam if rx.beam is None else rx.beam for rx in rxs]
+    sigma = min(min(b._core_tuple()[1:3]) for b in beams)
+    at = [_receiver_position(poses, i, rx.offset_m) for rx in rxs]
+    alone = [sonar.replace(receivers=(rx,)) for rx in rxs]  # (each receiver's lobe test)
+    rows: list[list[tuple]] = [[] for _ in rxs]
+    too_close: list[tuple[int, float]] = []
+    for j in range(len(branches)):
+        a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
+        near_tx = _segment_distance(p, a, b) - rad
+        near = min([near_tx] + [_segment_distance(q, a, b) - rad for q in at])
+        d = b - a
+        lj = math.sqrt(float(_dot(d, d)))
+        u = d / lj
+        far = math.sqrt(4.0 * max(near, sonar.min_range_m) * PIECE_PHASE / k_max)
+        beam = PIECE_BEAM_SHARE * sigma * max(near, sonar.min_range_m)
+        n = max(1, math.ceil(lj / (sonar.branch_piece_scale * min(far, beam))))
+        if n > MAX_PIECES:
+            raise ValueError(f"branch {j} would need {n} pieces at {near:.3e} m from the sonar")
+        pl = lj / n
+        for q in range(n):
+            c = a + ((2 * q + 1) / (2 * n)) * d
+            v = c - p
+            sv = float(_dot(v, u))
+            w = v - sv * u
+            if not math.sqrt(float(_dot(w, w))) > rad:
+                if abs(sv) <= 0.5 * pl:  # the pose inside the piece
+                    too_close.append((j, min(near_tx, 0.0)))
+                continue  # (end-on from the emitter: silent)
+            for k, q_rx in enumerate(at):
+                sight = _bistatic_sight(p, q_rx, c, u, rad, pl)
+                if sight == "inside":
+                    too_close.append((j, 0.0))
+                    continue
+                if sight is None:
+                    continue
+                ref, cg, sg, cb = sight
+                r_tx = math.sqrt(float(_dot(ref - p, ref - p)))
+                r_rx = math.sqrt(float(_dot(ref - q_rx, ref - q_rx)))
+                if not (r_tx >= sonar.min_range_m and r_rx >= sonar.min_range_m):
+                    too_close.append((j, min(r_tx, r_rx)))
+                    continue
+                one = Leaves(ref[None, :], np.array([[0.0, 0.0, 1.0]]), np.array([rad]))
+                mask, _, _, _, _, G = _heard(one, alone[k], poses, i)[0]
+                if mask[0]:
+                    rows[k].append((j, r_tx, r_rx, float(G[0]), pl, rad, cg, sg, cb))
+    if too_close and sonar.too_close == "raise":
+        j, dist = min(too_close)
+        raise ValueError(
+            f"branch {j} is {dist:.3e} m from pose {i} or a receiver, closer than min_range_m = "
+            f"{sonar.min_range_m} m"
+        )
+    return [
+        tuple(
+            np.array([r[c] for r in rs], dtype=np.int64 if c == 0 else np.float64) for c in range(9)
+        )
+        for rs in rows
+    ]
 
 
 # Section 10: shading -------------------------------------------------------------------------
@@ -583,7 +697,10 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
             elif leaves is not None:
                 mask, r, _, _ = _counting(leaves, provisional, poses, i)
                 far = max(far, float(r[mask].max(initial=0.0)))
-            if branches is not None:
+            if branches is not None and sonar.receivers is not None:
+                for pc in _pieces_heard(branches, provisional, poses, i, k_top):
+                    far = max(far, float(((pc[1] + pc[2]) / 2.0).max(initial=0.0)))
+            elif branches is not None:
                 rp = _pieces(branches, provisional, poses, i, k_top)[2]
                 far = max(far, float(rp.max(initial=0.0)))
         sonar = sonar.resolve(sonar.record_length_for(far))
@@ -597,13 +714,12 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
                 raise ValueError(f"{name} {int(np.argmin(ka))} has k a = {ka.min():.4g} < min_ka")
     n = cast(int, sonar.n_samples)
     if sonar.receivers is not None:
-        if branches is not None or sonar.shading is not None:
+        if sonar.shading is not None:
             raise ValueError(
-                "receivers at their own places hear leaves only: branches or shading with "
-                "receivers are not yet modelled"
+                "receivers at their own places hear leaves and branches unshaded: shading "
+                "with receivers is not yet modelled"
             )
-        assert leaves is not None
-        return _simulate_heard(leaves, sonar, poses, k0, k1, f, w)
+        return _simulate_heard(leaves, branches, sonar, poses, k0, k1, f, w)
     spectra = np.zeros((len(poses), len(f)), dtype=np.complex128)
     wood = np.zeros_like(spectra) if branches is not None else None
     impulses = np.zeros((len(poses), n))
@@ -646,26 +762,53 @@ def simulate(scene: Any, sonar: Sonar, poses: Poses, method: str = "exact") -> E
     )
 
 
-def _simulate_heard(leaves: Leaves, sonar: Sonar, poses: Poses, k0, k1, f, w) -> Echoes:
+def _simulate_heard(
+    leaves: Leaves | None, branches: Branches | None, sonar: Sonar, poses: Poses, k0, k1, f, w
+) -> Echoes:
     """Every receiver's echoes (docs/model.md §5a): the amplitude ``g S_tx S_rx L / (k r_tx
     r_rx)``, the phase ``-k (r_tx + r_rx) - psi``, absorption over ``r_tx + r_rx``, the
-    incidence from the bisector."""
+    incidence from the bisector; with branches, each receiver's pieces (§9)."""
     n = cast(int, sonar.n_samples)
     n_rx = len(cast(tuple, sonar.receivers))
     spectra = np.zeros((len(poses), n_rx, len(f)), dtype=np.complex128)
+    wood = np.zeros_like(spectra) if branches is not None else None
     impulses = np.zeros((len(poses), n_rx, n))
     counts = np.zeros((len(poses), n_rx), dtype=np.int64)
+    n_pieces = np.zeros((len(poses), n_rx), dtype=np.int64)
+    k_top = 2.0 * np.pi * f[-1] / sonar.sound_speed
     for i in range(len(poses)):
-        for j, (mask, r_tx, e_tx, r_rx, e_rx, G) in enumerate(_heard(leaves, sonar, poses, i)):
-            idx = np.flatnonzero(mask)
-            counts[i, j] = idx.size
-            if idx.size:
+        heard = _heard(leaves, sonar, poses, i) if leaves is not None else [None] * n_rx
+        pieces = _pieces_heard(branches, sonar, poses, i, k_top) if branches else [None] * n_rx
+        for j, (hd, pc) in enumerate(zip(heard, pieces, strict=True)):
+            if hd is not None:
+                mask, r_tx, e_tx, r_rx, e_rx, G = hd
+                idx = np.flatnonzero(mask)
+                counts[i, j] = idx.size
+            if hd is not None and idx.size:
+                leaves = cast(Leaves, leaves)
                 beta = _bisector_incidence(e_tx[idx], e_rx[idx], leaves.normals[idx])
                 r = (r_tx[idx] + r_rx[idx]) / 2.0
                 spread = r_tx[idx] * r_rx[idx]
                 spectra[i, j] = _spectrum(
                     sonar, r, G[idx], beta, leaves.radii[idx], f, w, spread=spread
                 )
+            if wood is not None and pc is not None:
+                _, pr_tx, pr_rx, pG, pl, pa, pcg, psg, pcb = pc
+                n_pieces[i, j] = pl.size
+                wood[i, j] = _wood_spectrum(
+                    sonar,
+                    (pr_tx + pr_rx) / 2.0,
+                    pG,
+                    pl,
+                    pa,
+                    pcg,
+                    psg,
+                    np.ones(pl.size),
+                    f,
+                    w,
+                    bistatic=(pr_tx, pr_rx, pcb),
+                )
+                spectra[i, j] += wood[i, j]
             full = np.zeros(n // 2 + 1, dtype=np.complex128)
             full[k0 : k1 + 1] = spectra[i, j]
             impulses[i, j] = 2.0 * np.fft.irfft(full, n)
@@ -677,6 +820,8 @@ def _simulate_heard(leaves: Leaves, sonar: Sonar, poses: Poses, k0, k1, f, w) ->
         n_leaves=counts,
         sonar=sonar,
         poses=poses,
+        wood_spectrum=wood,
+        n_pieces=n_pieces,
     )
 
 

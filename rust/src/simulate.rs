@@ -26,7 +26,7 @@ use rayon::prelude::*;
 /// branches, the wood's share of the spectra `(p, M)` (empty without) and the number of
 /// counting branch pieces; with shading, the number of counting leaves it dims or silences.
 /// With `R` receivers of their own (`n_receivers = R > 0`), `(p, R, M)`, `(p, R, n)` and
-/// `(p, R)` (receivers hear leaves only: no wood, no shading).
+/// `(p, R)`, the wood's share `(p, R, M)` and the counting pieces `(p, R)` (no shading).
 pub struct Echoes {
     pub n_bins: usize,
     pub n_receivers: usize,
@@ -154,11 +154,10 @@ pub fn simulate(
         // `bvh_candidates`), and the walk is a large part of a pulse.
         return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method));
     }
-    if !sonar.params.receivers.is_empty() && !scatter::is_plain(scene, sonar) {
+    if !sonar.params.receivers.is_empty() && sonar.params.shading.is_some() {
         return invalid(
-            "receivers at their own places hear leaves only: a scene with branches or a sonar \
-             with shading is not yet supported with receivers (use Scene(leaves) and \
-             shading=None, or no receivers)",
+            "receivers at their own places hear leaves and branches unshaded: a sonar with \
+             shading is not yet supported with receivers (use shading=None, or no receivers)",
         );
     }
     check_leaf_sizes(scene, sonar)?;

@@ -711,10 +711,10 @@ class DatasetSpec(_Section):
                 f'scene.forest.branches = true needs scene.kind = "forest" (the '
                 f"{self.scene.kind!r} scenes have no trees)"
             )
-        if self.sonar.ear_separation_m is not None and (self.sonar.shading or self.has_wood):
+        if self.sonar.ear_separation_m is not None and self.sonar.shading:
             raise SpecError(
-                "sonar.ear_separation_m (two ears) with sonar.shading or scene.forest.branches: "
-                "receivers at their own places hear leaves only, not yet wood or shading"
+                "sonar.ear_separation_m (two ears) with sonar.shading: receivers at their own "
+                "places hear leaves and wood unshaded, not yet shading"
             )
         if self.scene.reuse == "pool" and self.scene.pool_size > self.n_samples:
             raise SpecError(

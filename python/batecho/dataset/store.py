@@ -13,7 +13,8 @@ Layout (Zarr format 3, consolidated metadata; opens with ``xarray.open_zarr``)::
       receiver (receiver,)            with two ears: every per-pulse variable above gains
                                       a receiver dimension after pulse (0 left, 1 right)
       n_shaded (sample, pulse)                  with sonar.shading
-      nearest_wood_m, n_pieces (sample, pulse)  with scene.forest.branches
+      nearest_wood_m (sample, pulse), n_pieces (sample, pulse[, receiver])
+                                                with scene.forest.branches
       position, forward, up (sample, pulse, xyz) m / unit vectors        the poses
       scene_index, beamwidth_deg, <pose and scene labels> (sample,)      per-sample labels
       chunk_checksum (chunk,) uint64                                     completion markers
@@ -167,7 +168,7 @@ def schema(spec: DatasetSpec) -> list[Var]:
             "mean radius of the counting leaves (NaN: none counted)",
         ),
     ]
-    pulse = ("sample", "pulse")  # (two ears and wood or shading are not combined)
+    pulse = ("sample", "pulse")  # (two ears and shading are not combined)
     if spec.sonar.shading:
         out.append(
             Var(
@@ -190,7 +191,7 @@ def schema(spec: DatasetSpec) -> list[Var]:
                 "distance from the pulse to the nearest wood surface (trunk, branch or twig) "
                 "in the scene",
             ),
-            Var("n_pieces", pulse, "int32", -1, "1", "branch pieces that counted for the pulse"),
+            Var("n_pieces", sp, "int32", -1, "1", "branch pieces that counted for the pulse"),
         ]
     out += [
         Var("position", ("sample", "pulse", "xyz"), "float64", nan, "m", "pulse position"),

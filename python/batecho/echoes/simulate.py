@@ -41,7 +41,8 @@ class Echoes:
 
     With receivers of their own (``Sonar(receivers=...)``, ``R`` of them), every per-pose
     array has a receiver axis after the pose axis: ``spectrum`` (p, R, M), ``impulse``
-    (p, R, n_samples), ``n_leaves`` (p, R).
+    (p, R, n_samples), ``n_leaves`` (p, R), and with branches ``wood_spectrum`` (p, R, M)
+    and ``n_pieces`` (p, R).
     With branches in the scene: ``wood_spectrum`` (p, M), the branches' share of ``spectrum``
     (None without branches; :meth:`wood_impulse` is its impulse response), and ``n_pieces``
     (p,), how many branch pieces counted. With shading: ``n_shaded`` (p,), how many counting
@@ -96,6 +97,9 @@ class Echoes:
             sonar=self.sonar,
             poses=self.poses,
             receiver=int(j),
+            wood_spectrum=None if self.wood_spectrum is None else self.wood_spectrum[:, j],
+            n_pieces=None if self.n_pieces is None else self.n_pieces[:, j],
+            n_shaded=self.n_shaded,
         )
 
     def envelope(self) -> np.ndarray:
@@ -105,14 +109,14 @@ class Echoes:
         return np.abs(hilbert(self.impulse, axis=-1))
 
     def wood_impulse(self) -> np.ndarray | None:
-        """(p, n_samples) impulse response of the wood's share of the echo,
+        """(p, [R,] n_samples) impulse response of the wood's share of the echo,
         ``2 irfft(wood_spectrum, n)`` (None without branches)."""
         if self.wood_spectrum is None:
             return None
         n = len(self.times)
         k0 = int(np.rint(self.freqs[0] * n / self.sonar.fs))  # freqs[0] = k0 fs / n
-        full = np.zeros((len(self), n // 2 + 1), dtype=np.complex128)
-        full[:, k0 : k0 + self.wood_spectrum.shape[1]] = self.wood_spectrum
+        full = np.zeros((*self.wood_spectrum.shape[:-1], n // 2 + 1), dtype=np.complex128)
+        full[..., k0 : k0 + self.wood_spectrum.shape[-1]] = self.wood_spectrum
         return 2.0 * np.fft.irfft(full, n, axis=-1)
 
     def __len__(self) -> int:

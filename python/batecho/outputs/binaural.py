@@ -4,6 +4,7 @@ the Figure; nothing is shown."""
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -97,11 +98,23 @@ def plot_binaural_echo_images(
     return fig
 
 
+def _silent_ears(echoes, max_range_m: float | None) -> np.ndarray:
+    """(p, R) True where a receiver's impulse response is zero over the window."""
+    y = echoes.impulse
+    if max_range_m is not None:
+        y = y[..., echoes.ranges <= max_range_m]
+    return ~np.any(y != 0.0, axis=-1)
+
+
 def plot_interaural_differences(
     echoes, x: Any = None, xlabel: str | None = None, max_range_m: float | None = None
 ):
     """The interaural level difference (dB, left minus right) and time difference (µs,
-    positive when the left ear hears first) of each pulse along the flight."""
+    positive when the left ear hears first) of each pulse along the flight.
+
+    Where an ear hears nothing the differences are undefined: those pulses are marked on the
+    zero line by which ear is silent, a note in the figure counts them, and a
+    :class:`UserWarning` names them."""
     _check(echoes)
     plt = _plt()
     p = len(echoes)
@@ -110,13 +123,49 @@ def plot_interaural_differences(
         raise ValueError(f"x must have one value per pulse ({p}), got shape {xs.shape}")
     ild = interaural_level_difference(echoes, max_range_m=max_range_m)
     itd = interaural_time_difference(echoes, max_range_m=max_range_m)
+    silent = _silent_ears(echoes, max_range_m)[:, :2]
+    names = _ear_names(echoes)[:2]
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True, constrained_layout=True)
-    a1.plot(xs, ild, "o-", ms=3, lw=1)
-    a1.axhline(0.0, color="0.6", lw=0.8)
+    for ax, v, color in ((a1, ild, "tab:blue"), (a2, itd * 1e6, "tab:red")):
+        ok = np.isfinite(v)
+        # (the line joins neighbouring pulses that both have a value)
+        ax.plot(xs, np.where(ok, v, np.nan), "-", lw=1, color=color)
+        ax.plot(xs[ok], v[ok], "o", ms=3, color=color)
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        for j, marker in ((0, "<"), (1, ">")):
+            at = silent[:, j]
+            if at.any():
+                ax.plot(
+                    xs[at],
+                    np.zeros(int(at.sum())),
+                    marker,
+                    ms=6,
+                    color="0.35",
+                    ls="none",
+                    label=f"{names[j]} ear hears nothing",
+                )
     a1.set_ylabel("ILD (dB, left - right)")
-    a2.plot(xs, itd * 1e6, "o-", ms=3, lw=1, color="tab:red")
-    a2.axhline(0.0, color="0.6", lw=0.8)
     a2.set_ylabel("ITD (µs, right - left)")
     a2.set_xlabel(xlabel or ("pulse" if x is None else "x"))
     a1.set_title("Interaural differences along the flight", fontsize=10)
+    undefined = np.flatnonzero(silent.any(axis=1))
+    if undefined.size:
+        a1.legend(loc="best", fontsize=8)
+        note = (
+            f"{undefined.size} of {p} pulses have an ear that hears nothing: "
+            "no interaural difference there"
+        )
+        fig.text(0.5, 0.01, note, ha="center", va="bottom", fontsize=8, color="0.3")
+        shown = ", ".join(str(int(i)) for i in undefined[:10])
+        more = ", ..." if undefined.size > 10 else ""
+        who = " and ".join(
+            f"the {names[j]} ear at {int(silent[:, j].sum())}"
+            for j in range(2)
+            if silent[:, j].any()
+        )
+        warnings.warn(
+            f"plot_interaural_differences: {note} (pulses {shown}{more}; silent: {who})",
+            UserWarning,
+            stacklevel=2,
+        )
     return fig

@@ -5,8 +5,8 @@ use batecho::lobe::{self, Search};
 use batecho::physics::pose::Pose;
 use batecho::shade::{self, Target};
 use batecho::simulate;
-use numpy::ndarray::{Array2, ArrayD, IxDyn};
-use numpy::{Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyReadonlyArray2};
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{Complex64, IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -61,32 +61,15 @@ type SimOut<'py> = (
     Bound<'py, PyArrayDyn<Complex64>>,
     Option<Bound<'py, PyArrayDyn<f64>>>,
     Bound<'py, PyArrayDyn<u64>>,
-    Option<Bound<'py, PyArray2<Complex64>>>,
-    Bound<'py, PyArray1<u64>>,
+    Option<Bound<'py, PyArrayDyn<Complex64>>>,
+    Bound<'py, PyArrayDyn<u64>>,
     Bound<'py, PyArray1<u64>>,
 );
 
-/// `(p, M)` complex values from separate real and imaginary parts.
-fn complex_rows<'py>(
-    py: Python<'py>,
-    p: usize,
-    m: usize,
-    re: &[f64],
-    im: &[f64],
-) -> Bound<'py, PyArray2<Complex64>> {
-    let v: Vec<Complex64> = re
-        .iter()
-        .zip(im)
-        .map(|(&re, &im)| Complex64::new(re, im))
-        .collect();
-    Array2::from_shape_vec((p, m), v)
-        .expect("p * M values")
-        .into_pyarray(py)
-}
-
 /// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,),
 /// wood spectrum (p, M) or None without branches, n_pieces (p,), n_shaded (p,))`; with `R`
-/// receivers of their own, the first three are `(p, R, M)`, `(p, R, n)` and `(p, R)`.
+/// receivers of their own, the first three are `(p, R, M)`, `(p, R, n)` and `(p, R)`, the wood
+/// spectrum `(p, R, M)` and n_pieces `(p, R)`.
 /// `method` is "exact", "fast" or "auto" (the last two use `tol`); both are required, so that
 /// the defaults live in one place (`batecho.simulate`).
 #[pyfunction(name = "simulate")]
@@ -130,8 +113,17 @@ pub(crate) fn simulate_py<'py>(
     let spec = ArrayD::from_shape_vec(IxDyn(&shape(m)), spec)
         .expect("p * R * M values")
         .into_pyarray(py);
-    let wood = (!scene.inner.branches.is_empty())
-        .then(|| complex_rows(py, p, m, &out.wood_re, &out.wood_im));
+    let wood = (!scene.inner.branches.is_empty()).then(|| {
+        let v: Vec<Complex64> = out
+            .wood_re
+            .iter()
+            .zip(&out.wood_im)
+            .map(|(&re, &im)| Complex64::new(re, im))
+            .collect();
+        ArrayD::from_shape_vec(IxDyn(&shape(m)), v)
+            .expect("p * R * M values")
+            .into_pyarray(py)
+    });
     let imp = if impulse {
         let n = sonar.inner.params.n_samples;
         Some(
@@ -150,7 +142,9 @@ pub(crate) fn simulate_py<'py>(
         imp,
         counts,
         wood,
-        out.n_pieces.into_pyarray(py),
+        ArrayD::from_shape_vec(IxDyn(&lead), out.n_pieces)
+            .expect("p * R counts")
+            .into_pyarray(py),
         out.n_shaded.into_pyarray(py),
     ))
 }

@@ -2,7 +2,8 @@
 //! echo is summed as, and the exact kernel that adds a piece to every band bin.
 //!
 //! A piece's term at bin k is `amp f(k) exp(j pi/4) exp(-j 2 k r)` (times absorption), with
-//! `f = c0 sqrt(k) sinc(k X)`, `c0 = (l/2) sqrt(a cos(gamma) / pi)`, `X = l sin(gamma)`
+//! `f = c0 sqrt(k) sinc(k X)`, `c0 = (l/2) sqrt(a cos(gamma) s / pi)`, `X = l sin(gamma) s`,
+//! `s = cos(beta/2)` of the bistatic angle (1 heard at the emitter)
 //! ([`crate::physics::branch::cylinder_po`]), and `r` the reference point's range plus the
 //! piece's mean Fresnel lag ([`crate::physics::branch::fresnel_lag`]). Where `k X` is small
 //! across the band the factor is smooth and the piece is one point at range `r`. Where it is
@@ -14,9 +15,11 @@
 //! checked, and evaluated bin by bin where a block fails.
 use crate::echo::exact::{accumulate_block, block_poly, phase_steps, CHEB_TOL};
 use crate::echo::prepared::Prepared;
+use crate::echo::receivers::heard_amplitude;
 use crate::echo::tables::{lanes, lanes_mut, BandTables, LANES, POLY_BLOCK, POLY_DEG};
 use crate::echo::term::leaf_amp;
-use crate::lobe::PieceMember;
+use crate::lobe::{HeardPiece, PieceMember};
+use crate::physics::bistatic::lag_range;
 use crate::physics::branch::{fresnel_lag, sinc, CYLINDER_PSI};
 use crate::physics::phase::CyclesPerBin;
 use crate::sonar::Sonar;
@@ -35,6 +38,12 @@ pub struct BranchTerm {
     pub radius: f64,
     pub cos_gamma: f64,
     pub sin_gamma: f64,
+    /// `cos(beta/2)` of the bistatic angle `beta` (1 heard at the emitter): the wavenumber's
+    /// projection on the bisector, `k cos(beta/2)`, takes `k`'s place in the cylinder's factor.
+    pub k_scale: f64,
+    /// The range (m) of the piece's mean Fresnel lag (`range` heard at the emitter; the
+    /// harmonic mean of the two ranges heard by a receiver of its own).
+    pub lag_range: f64,
 }
 
 /// The term of a counting piece.
@@ -46,6 +55,25 @@ pub fn branch_term(sonar: &Sonar, m: &PieceMember) -> BranchTerm {
         radius: m.radius,
         cos_gamma: m.cos_gamma,
         sin_gamma: m.sin_gamma,
+        k_scale: 1.0,
+        lag_range: m.range,
+    }
+}
+
+/// The term of a piece heard by a receiver of its own (docs/model.md §9): the bistatic
+/// amplitude `g S_tx S_rx / (r_tx r_rx)`, the delay range `(r_tx + r_rx)/2` (absorption over
+/// `r_tx + r_rx`), the tilt from the bisector's broadside, `k cos(beta/2)` in the factor.
+pub fn heard_branch_term(sonar: &Sonar, m: &HeardPiece) -> BranchTerm {
+    let h = &m.heard;
+    BranchTerm {
+        amp: heard_amplitude(sonar, h),
+        range: h.range(),
+        length: m.length,
+        radius: m.radius,
+        cos_gamma: m.cos_gamma,
+        sin_gamma: m.sin_gamma,
+        k_scale: m.cos_half_bistatic,
+        lag_range: lag_range(h.tx.range, h.rx.range),
     }
 }
 
@@ -87,11 +115,12 @@ pub struct BranchPoint {
 /// The points of a piece's echo (one, or its two edges; see the module's comment) for a band
 /// whose lowest wavenumber is `k_min`.
 pub fn branch_points(t: &BranchTerm, k_min: f64) -> ([BranchPoint; 2], usize) {
-    let c0 = t.amp * 0.5 * t.length * (t.radius * t.cos_gamma / PI).sqrt();
-    let x = t.length * t.sin_gamma;
+    // (k_scale = 1 heard at the emitter: the products below keep their bits)
+    let c0 = t.amp * 0.5 * t.length * (t.radius * t.cos_gamma * t.k_scale / PI).sqrt();
+    let x = t.length * t.sin_gamma * t.k_scale;
     // exp(-j psi) = exp(j pi/4)
     let (s, c) = (-CYLINDER_PSI).sin_cos();
-    let r = t.range + fresnel_lag(t.length, t.cos_gamma, t.range);
+    let r = t.range + fresnel_lag(t.length, t.cos_gamma, t.lag_range);
     if k_min * x < EDGE_MIN_KX {
         let p = BranchPoint {
             delay: r,

@@ -36,10 +36,11 @@ pub mod regime;
 pub mod spectrum;
 pub mod tables;
 pub mod term;
+pub mod term_pool;
 
 pub use branch::{
-    add_branch, branch_points, branch_term, sum_branch_terms, sum_branch_terms_unwindowed,
-    BranchPoint, BranchTerm, PointForm,
+    add_branch, branch_points, branch_term, heard_branch_term, sum_branch_terms,
+    sum_branch_terms_unwindowed, BranchPoint, BranchTerm, PointForm,
 };
 pub(crate) use exact::cis_neg;
 pub use exact::{add_leaf, add_leaf_scalar, CHEB_TOL, SMOOTH_TOL};

@@ -7,6 +7,7 @@
 //! of the two directions ([`bisector_incidence`] for a leaf's normal); so the term of any
 //! other kind of scatterer is made per receiver by the same two calls.
 use crate::echo::term::LeafTerm;
+use crate::echo::term_pool::take_terms;
 use crate::error::{Error, Result};
 use crate::lobe::candidates::Candidates;
 use crate::lobe::receivers_block::{emitter_lanes, heard_lanes, EmitterLanes, HeardLanes};
@@ -156,7 +157,8 @@ fn heard_chunk(
 /// order within each), from the pose's candidates. Candidates are tested in parallel chunks
 /// of fixed length, in order, so the result does not depend on the number of threads. A leaf
 /// closer than `min_range` to the emitter or a receiver is an error naming the smallest
-/// caller index (unless `too_close` skips it). `pose_index` only labels errors.
+/// caller index (unless `too_close` skips it). `pose_index` only labels errors. The lists may
+/// go back to [`crate::echo::term_pool::give_terms`] when done with.
 pub fn heard_terms(
     scene: &Scene,
     sonar: &Sonar,
@@ -229,9 +231,7 @@ fn heard_pass(
     let mut ids: Vec<Vec<u32>> = (0..rxs.len())
         .map(|k| Vec::with_capacity(total(k)))
         .collect();
-    let mut terms: Vec<Vec<LeafTerm>> = (0..rxs.len())
-        .map(|k| Vec::with_capacity(total(k)))
-        .collect();
+    let mut terms: Vec<Vec<LeafTerm>> = (0..rxs.len()).map(|k| take_terms(total(k))).collect();
     for part in parts {
         for (k, (i, t)) in part.ids.into_iter().zip(part.terms).enumerate() {
             ids[k].extend(i);

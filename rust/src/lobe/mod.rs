@@ -9,6 +9,7 @@ pub mod bound;
 pub mod candidates;
 pub mod members;
 pub mod pieces;
+pub mod pieces_heard;
 pub mod receivers;
 pub(crate) mod receivers_block;
 pub mod receivers_bound;
@@ -20,6 +21,7 @@ pub use bound::{test_box, AngularBound, BoxTest};
 pub(crate) use members::classify_member;
 pub use members::{farthest_member_range, members, members_of, Member, Search};
 pub use pieces::{branch_members, PieceMember};
+pub use pieces_heard::{branch_members_heard, HeardPiece};
 pub use receivers::{
     classify_heard, emitter_side, place_receivers, Heard, HeardDecision, OneWay, PlacedReceiver,
 };

@@ -1,16 +1,20 @@
-//! Echoes for receivers at their own places (docs/model.md §5a): per pose, one lobe query for
-//! all receivers (the union of their lobes), one pass over the candidates that makes every
-//! receiver's terms, then each receiver's band spectrum and impulse response.
+//! Echoes for receivers at their own places (docs/model.md §5a, §9): per pose, one lobe query
+//! for all receivers (the union of their lobes), one pass over the candidates that makes every
+//! receiver's terms, the branch pieces each receiver hears, then each receiver's band spectrum
+//! (leaves and wood) and impulse response.
 use crate::budget;
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::receivers::heard_terms;
 use crate::echo::spectrum::sum_terms;
+use crate::echo::term_pool::give_terms;
 use crate::echo::LeafTerm;
+use crate::echo::{heard_branch_term, BranchTerm};
 use crate::error::Result;
 use crate::fast::{fast_sum_terms, FastPlan, FastSonar};
-use crate::lobe::{candidates_heard, place_receivers, Search};
+use crate::lobe::{branch_members_heard, candidates_heard, place_receivers, Search};
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
+use crate::simulate::scatter::wood_spectrum;
 use crate::simulate::{check_finite, cost_exact, cost_fast, Echoes, Method};
 use crate::sonar::Sonar;
 use rayon::prelude::*;
@@ -36,8 +40,23 @@ fn receiver_spectrum(
     }
 }
 
+/// One receiver's echo of one pose: the windowed band spectrum, the impulse response (empty
+/// when not asked for), the counting leaves, the wood's share of the spectrum (empty without
+/// branches) and the counting branch pieces.
+struct HeardEcho {
+    re: Vec<f64>,
+    im: Vec<f64>,
+    y: Vec<f64>,
+    n_leaves: u64,
+    wood_re: Vec<f64>,
+    wood_im: Vec<f64>,
+    n_pieces: u64,
+}
+
 /// Echoes of every pose for every receiver of `sonar` (which has some), poses in parallel:
-/// spectra `(p, R, M)`, impulses `(p, R, n)`, counts `(p, R)`.
+/// spectra `(p, R, M)`, impulses `(p, R, n)`, counts `(p, R)`; with branches the wood's
+/// spectra `(p, R, M)` and the counting pieces `(p, R)`. `plan` is that of each part's share
+/// of `tol`.
 pub fn simulate_heard(
     scene: &Scene,
     sonar: &FastSonar,
@@ -50,28 +69,56 @@ pub fn simulate_heard(
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     let r = sonar.params.receivers.len();
-    // Per pose and receiver: spectrum (re, im), impulse, number of counting leaves.
-    type Heard = Vec<(Vec<f64>, Vec<f64>, Vec<f64>, u64)>;
-    let per_pose: Vec<Heard> = poses
+    let wood = !scene.branches.is_empty();
+    let per_pose: Vec<Vec<HeardEcho>> = poses
         .par_iter()
         .enumerate()
         .map(|(i, pose)| {
             let rxs = place_receivers(sonar, pose);
             let cands = candidates_heard(scene, sonar, pose, &rxs, search);
             let terms = heard_terms(scene, sonar, pose, i, &rxs, &cands)?;
+            let pieces = branch_members_heard(scene, sonar, pose, i, &rxs)?;
+            // The receivers' sums side by side: each is the same whatever runs beside it (its
+            // chunks are fixed), and one's serial steps (the transforms) overlap the other's
+            // spreading.
             terms
-                .iter()
-                .map(|t| {
-                    let (re, im) = receiver_spectrum(sonar, method, plan.as_deref(), t);
+                .into_par_iter()
+                .zip(pieces)
+                .map(|(t, pc)| {
+                    let (mut re, mut im) = receiver_spectrum(sonar, method, plan.as_deref(), &t);
+                    let n_leaves = t.len() as u64;
+                    give_terms(t);
+                    let (mut wood_re, mut wood_im) = (Vec::new(), Vec::new());
+                    if wood {
+                        let wt: Vec<BranchTerm> =
+                            pc.iter().map(|p| heard_branch_term(sonar, p)).collect();
+                        (wood_re, wood_im) = if wt.is_empty() {
+                            (vec![0.0; m], vec![0.0; m])
+                        } else {
+                            wood_spectrum(sonar, plan.as_deref(), &wt)
+                        };
+                        for j in 0..m {
+                            re[j] += wood_re[j];
+                            im[j] += wood_im[j];
+                        }
+                    }
                     let mut y = Vec::new();
                     if with_impulse {
                         y = budget::filled(n, 0.0, "the impulse response")?;
                         impulse_from_band(n, sonar.k0, &re, &im, &mut y);
                     }
                     check_finite(i, &re, &im, &y, sonar)?;
-                    Ok((re, im, y, t.len() as u64))
+                    Ok(HeardEcho {
+                        re,
+                        im,
+                        y,
+                        n_leaves,
+                        wood_re,
+                        wood_im,
+                        n_pieces: pc.len() as u64,
+                    })
                 })
-                .collect::<Result<Heard>>()
+                .collect::<Result<Vec<HeardEcho>>>()
         })
         .collect::<Result<Vec<_>>>()?;
     let what = "simulate's output";
@@ -90,21 +137,24 @@ pub fn simulate_heard(
             what,
         )?,
         n_leaves: budget::with_capacity(records, what)?,
-        wood_re: Vec::new(),
-        wood_im: Vec::new(),
-        n_pieces: budget::filled(poses.len(), 0, what)?,
+        wood_re: budget::with_capacity(if wood { records.saturating_mul(m) } else { 0 }, what)?,
+        wood_im: budget::with_capacity(if wood { records.saturating_mul(m) } else { 0 }, what)?,
+        n_pieces: budget::with_capacity(records, what)?,
         n_shaded: budget::filled(poses.len(), 0, what)?,
     };
-    for (re, im, y, c) in per_pose.into_iter().flatten() {
-        out.spectrum_re.extend_from_slice(&re);
-        out.spectrum_im.extend_from_slice(&im);
-        out.impulse.extend_from_slice(&y);
-        out.n_leaves.push(c);
+    for e in per_pose.into_iter().flatten() {
+        out.spectrum_re.extend_from_slice(&e.re);
+        out.spectrum_im.extend_from_slice(&e.im);
+        out.impulse.extend_from_slice(&e.y);
+        out.n_leaves.push(e.n_leaves);
+        out.wood_re.extend_from_slice(&e.wood_re);
+        out.wood_im.extend_from_slice(&e.wood_im);
+        out.n_pieces.push(e.n_pieces);
     }
     Ok(out)
 }
 
-/// The largest delay range `(r_tx + r_rx) / 2` (m) of a counting leaf over the receivers, per
+/// The largest delay range `(r_tx + r_rx) / 2` (m) of a counting leaf or piece over the receivers, per
 /// pose (0 where none counts), poses in parallel; the same errors as [`simulate_heard`].
 pub fn farthest_heard(
     scene: &Scene,
@@ -119,7 +169,13 @@ pub fn farthest_heard(
             let rxs = place_receivers(sonar, pose);
             let cands = candidates_heard(scene, sonar, pose, &rxs, search);
             let terms = heard_terms(scene, sonar, pose, i, &rxs, &cands)?;
-            Ok(terms.iter().flatten().fold(0.0f64, |a, t| a.max(t.range)))
+            let far = terms.iter().flatten().fold(0.0f64, |a, t| a.max(t.range));
+            terms.into_iter().for_each(give_terms);
+            let pieces = branch_members_heard(scene, sonar, pose, i, &rxs)?;
+            Ok(pieces
+                .iter()
+                .flatten()
+                .fold(far, |a, p| a.max(p.heard.range())))
         })
         .collect()
 }

@@ -117,8 +117,8 @@ const WOOD_TOL_MARGIN: f64 = 4.0;
 fn piece_size(sonar: &Sonar, t: &BranchTerm) -> f64 {
     let k = &sonar.wavenumbers;
     let (k_lo, k_hi) = (k[0], k[k.len() - 1]);
-    let c0 = 0.5 * t.length * (t.radius * t.cos_gamma / std::f64::consts::PI).sqrt();
-    let kx = k_lo * t.length * t.sin_gamma;
+    let c0 = 0.5 * t.length * (t.radius * t.cos_gamma * t.k_scale / std::f64::consts::PI).sqrt();
+    let kx = k_lo * t.length * t.sin_gamma * t.k_scale;
     let sinc_bound = if kx > 1.0 { 1.0 / kx } else { 1.0 };
     t.amp * c0 * k_hi.sqrt() * sinc_bound * (k.len() as f64).sqrt()
 }
@@ -132,7 +132,7 @@ fn piece_size(sonar: &Sonar, t: &BranchTerm) -> f64 {
 /// the pieces' sizes, times [`WOOD_TOL_MARGIN`], exceeds the sum's norm, the sum is redone with
 /// the plan's `tol` tightened by that ratio (rounded down to a power of ten, so that few plans
 /// are built), or exactly where that falls below the fast method's floor or costs more.
-fn wood_spectrum(
+pub(crate) fn wood_spectrum(
     sonar: &FastSonar,
     plan: Option<&FastPlan>,
     terms: &[BranchTerm],

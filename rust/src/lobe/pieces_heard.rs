@@ -1,0 +1,191 @@
+//! Which branch pieces count for receivers at their own places (docs/model.md §9, "Heard by a
+//! receiver of its own"): each segment is cut once for all receivers, by the rule of
+//! [`max_piece_length`] at its nearest distance from the emitter or any receiver; each piece
+//! lit from the emitter is referred, per receiver, to the point of its centre's cross-section
+//! that makes `r_tx + r_rx` least ([`bistatic_piece_sight`]), and goes through the receivers'
+//! exact lobe test ([`classify_heard`]) there.
+use crate::error::{Error, Result};
+use crate::lobe::receivers::{classify_heard, emitter_side, Heard, HeardDecision, PlacedReceiver};
+use crate::math::vec3::V3;
+use crate::physics::bistatic::{bistatic_piece_sight, BistaticSight};
+use crate::physics::branch::{
+    distance_to_segment, max_piece_length, piece_count, piece_sight, PieceSight,
+};
+use crate::physics::pose::Pose;
+use crate::scene::Scene;
+use crate::sonar::{Sonar, TooClose};
+use rayon::prelude::*;
+
+use super::pieces::MAX_PIECES;
+
+/// One counting branch piece for one receiver: its segment, the reference point of its echo,
+/// the emitter's and the receiver's views there, its length and radius, the tilt of its axis
+/// from the bisector's broadside, and `cos(beta/2)` of the bistatic angle `beta`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeardPiece {
+    pub segment: u32,
+    pub reference: V3,
+    pub heard: Heard,
+    pub length: f64,
+    pub radius: f64,
+    pub cos_gamma: f64,
+    pub sin_gamma: f64,
+    pub cos_half_bistatic: f64,
+}
+
+/// Segments per parallel task.
+const SEGMENT_CHUNK: usize = 256;
+
+/// The smallest Gaussian width (rad) of the emitter's and the receivers' patterns.
+fn narrowest_sigma(sonar: &Sonar, rxs: &[PlacedReceiver]) -> f64 {
+    let e = &sonar.params.emitter;
+    rxs.iter().fold(e.sigma_x.min(e.sigma_y), |s, r| {
+        s.min(r.beam.sigma_x).min(r.beam.sigma_y)
+    })
+}
+
+/// Per receiver, the pieces of segment `i` that count, appended to `out[j]`; the first
+/// too-close one (segment, distance) into `too_close`.
+fn segment_pieces_heard(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    rxs: &[PlacedReceiver],
+    i: usize,
+    out: &mut [Vec<HeardPiece>],
+    too_close: &mut Option<(usize, f64)>,
+) -> Result<()> {
+    let br = &scene.branches;
+    let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
+    let sp = &sonar.params;
+    let near_tx = distance_to_segment(pose.position, a, b) - radius;
+    let near = rxs.iter().fold(near_tx, |m, rx| {
+        m.min(distance_to_segment(rx.position, a, b) - radius)
+    });
+    // (a delay range (r_tx + r_rx)/2 is at least r_tx less half the receiver's offset)
+    let half_offset = rxs.iter().fold(0.0f64, |m, rx| {
+        let o = crate::math::vec3::sub(rx.position, pose.position);
+        m.max(0.5 * crate::math::vec3::norm(o))
+    });
+    if near_tx - half_offset > sonar.max_reach() {
+        return Ok(());
+    }
+    let k_max = sonar.wavenumbers[sonar.wavenumbers.len() - 1];
+    let max_len = max_piece_length(
+        near.max(sp.min_range),
+        k_max,
+        narrowest_sigma(sonar, rxs),
+        sp.branch_piece_scale,
+    );
+    let length = br.lengths[i];
+    let n = piece_count(length, max_len);
+    if n > MAX_PIECES {
+        return Err(Error::InvalidInput(format!(
+            "branch {i} would need {n} pieces at {near:.3e} m from the sonar or a receiver (at \
+             most {MAX_PIECES}); raise min_range_m or keep the sonar farther from it"
+        )));
+    }
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let (u, piece_len) = (br.axes[i], length / n as f64);
+    let mut note_close = |r: f64| {
+        if too_close.is_none() {
+            *too_close = Some((i, r));
+        }
+    };
+    for k in 0..n {
+        let t = (2 * k + 1) as f64 / (2 * n) as f64;
+        let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
+        match piece_sight(pose.position, c, u, radius, piece_len) {
+            PieceSight::Inside => {
+                note_close(near_tx.min(0.0));
+                continue;
+            }
+            PieceSight::EndOn => continue,
+            PieceSight::Lit { .. } => {}
+        }
+        for (j, rx) in rxs.iter().enumerate() {
+            let sight = bistatic_piece_sight(pose.position, rx.position, c, u, radius, piece_len);
+            let BistaticSight::Lit {
+                reference,
+                cos_gamma,
+                sin_gamma,
+                cos_half_bistatic,
+            } = sight
+            else {
+                if sight == BistaticSight::Inside {
+                    note_close(0.0);
+                }
+                continue;
+            };
+            let tx = match emitter_side(sonar, pose, reference) {
+                Ok(tx) => tx,
+                Err(r) => {
+                    note_close(r);
+                    continue;
+                }
+            };
+            match classify_heard(sonar, pose, rx, reference, &tx) {
+                HeardDecision::In(heard) => out[j].push(HeardPiece {
+                    segment: i as u32,
+                    reference,
+                    heard,
+                    length: piece_len,
+                    radius,
+                    cos_gamma,
+                    sin_gamma,
+                    cos_half_bistatic,
+                }),
+                HeardDecision::TooClose(r) => note_close(r),
+                HeardDecision::Out => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Per receiver of `rxs`, the counting branch pieces of one pose, by segment (the caller's
+/// order) and along each segment from its start. A piece closer than `min_range` to the
+/// emitter or a receiver (or a pose or receiver inside a branch) is an error naming the
+/// segment, or is left out with `too_close = "skip"`. Segments go in parallel chunks in
+/// order, so the result does not depend on the number of threads. `pose_index` only labels
+/// errors.
+pub fn branch_members_heard(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    pose_index: usize,
+    rxs: &[PlacedReceiver],
+) -> Result<Vec<Vec<HeardPiece>>> {
+    let n = scene.branches.len();
+    let mut out: Vec<Vec<HeardPiece>> = (0..rxs.len()).map(|_| Vec::new()).collect();
+    if n == 0 {
+        return Ok(out);
+    }
+    type Part = (Vec<Vec<HeardPiece>>, Option<(usize, f64)>);
+    let parts: Vec<Result<Part>> = (0..n.div_ceil(SEGMENT_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut mine: Vec<Vec<HeardPiece>> = (0..rxs.len()).map(|_| Vec::new()).collect();
+            let mut close = None;
+            for i in c * SEGMENT_CHUNK..n.min((c + 1) * SEGMENT_CHUNK) {
+                segment_pieces_heard(scene, sonar, pose, rxs, i, &mut mine, &mut close)?;
+            }
+            Ok((mine, close))
+        })
+        .collect();
+    for part in parts {
+        let (mine, close) = part?;
+        if let (Some((branch, range)), TooClose::Error) = (close, sonar.params.too_close) {
+            return Err(Error::BranchTooClose {
+                pose: pose_index,
+                branch,
+                range,
+                min_range: sonar.params.min_range,
+            });
+        }
+        for (o, m) in out.iter_mut().zip(mine) {
+            o.extend(m);
+        }
+    }
+    Ok(out)
+}
