@@ -74,7 +74,7 @@ __all__ = [
 ]
 
 #: Whether the trees' branches and trunks echo (and block, with shading) by default.
-DEFAULT_BRANCHES = False
+DEFAULT_BRANCHES = True
 #: The shading of echoes by default (None: every scatterer echoes as though it stood alone).
 DEFAULT_SHADING: Shading | None = None
 
