@@ -14,7 +14,6 @@ import pytest
 
 import batecho
 from batecho.echoes.canonical import canonical_leaf_box
-from batecho.paper.settings import PAPER_CLEARANCE_M
 from batecho.paper import (
     PAPER_TABLE1,
     Table1Result,
@@ -24,6 +23,7 @@ from batecho.paper import (
     paper_figures,
     table1,
 )
+from batecho.paper.settings import PAPER_CLEARANCE_M
 
 # ---------------------------------------------------------------- empty and full lobes
 
