@@ -8,7 +8,7 @@ use numpy::{Complex64, IntoPyArray, PyArrayDyn, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::echoes::{method_from, poses_from, search_from};
+use crate::echoes::{complex_array, method_from, poses_from, search_from};
 use crate::scene::PyScene;
 use crate::sonar::PySonar;
 use crate::to_py;
@@ -79,16 +79,8 @@ fn spectra(py: Python<'_>, e: Echoes) -> Spectra<'_> {
     };
     let mut shape = lead.clone();
     shape.push(m);
-    let spec: Vec<Complex64> = e
-        .spectrum_re
-        .iter()
-        .zip(&e.spectrum_im)
-        .map(|(&re, &im)| Complex64::new(re, im))
-        .collect();
     (
-        ArrayD::from_shape_vec(IxDyn(&shape), spec)
-            .expect("p * R * M values")
-            .into_pyarray(py),
+        complex_array(py, &shape, &e.spectrum_re, &e.spectrum_im),
         ArrayD::from_shape_vec(IxDyn(&lead), e.n_leaves)
             .expect("p * R counts")
             .into_pyarray(py),

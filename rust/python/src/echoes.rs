@@ -57,6 +57,23 @@ pub(crate) fn method_from(method: &str, tol: f64) -> PyResult<simulate::Method> 
     }
 }
 
+/// A complex array of `shape` from separate real and imaginary parts (as many as it holds).
+pub(crate) fn complex_array<'py>(
+    py: Python<'py>,
+    shape: &[usize],
+    re: &[f64],
+    im: &[f64],
+) -> Bound<'py, PyArrayDyn<Complex64>> {
+    let v: Vec<Complex64> = re
+        .iter()
+        .zip(im)
+        .map(|(&re, &im)| Complex64::new(re, im))
+        .collect();
+    ArrayD::from_shape_vec(IxDyn(shape), v)
+        .expect("as many values as the shape holds")
+        .into_pyarray(py)
+}
+
 type SimOut<'py> = (
     Bound<'py, PyArrayDyn<Complex64>>,
     Option<Bound<'py, PyArrayDyn<f64>>>,
@@ -104,26 +121,9 @@ pub(crate) fn simulate_py<'py>(
         r => vec![p, r],
     };
     let shape = |last: usize| -> Vec<usize> { lead.iter().copied().chain([last]).collect() };
-    let spec: Vec<Complex64> = out
-        .spectrum_re
-        .iter()
-        .zip(&out.spectrum_im)
-        .map(|(&re, &im)| Complex64::new(re, im))
-        .collect();
-    let spec = ArrayD::from_shape_vec(IxDyn(&shape(m)), spec)
-        .expect("p * R * M values")
-        .into_pyarray(py);
-    let wood = (!scene.inner.branches.is_empty()).then(|| {
-        let v: Vec<Complex64> = out
-            .wood_re
-            .iter()
-            .zip(&out.wood_im)
-            .map(|(&re, &im)| Complex64::new(re, im))
-            .collect();
-        ArrayD::from_shape_vec(IxDyn(&shape(m)), v)
-            .expect("p * R * M values")
-            .into_pyarray(py)
-    });
+    let spec = complex_array(py, &shape(m), &out.spectrum_re, &out.spectrum_im);
+    let wood = (!scene.inner.branches.is_empty())
+        .then(|| complex_array(py, &shape(m), &out.wood_re, &out.wood_im));
     let imp = if impulse {
         let n = sonar.inner.params.n_samples;
         Some(

@@ -39,6 +39,23 @@ fn extent(bvh: &Bvh2) -> f64 {
     lo.iter().chain(&hi).fold(0.0, |m: f64, x| m.max(x.abs()))
 }
 
+/// Push the two children of an inner node (the first at BVH position `first`) with their
+/// boxes' distances from `p`, the nearer on top so that it is visited first.
+#[inline(always)]
+fn push_children(bvh: &Bvh2, p: V3, first: u32, stack: &mut Vec<(u32, f64)>) {
+    let (a, b) = (first, first + 1);
+    let (la, ha) = node_box(bvh, a);
+    let (lb, hb) = node_box(bvh, b);
+    let (da, db) = (point_box_distance(p, la, ha), point_box_distance(p, lb, hb));
+    if da <= db {
+        stack.push((b, db));
+        stack.push((a, da));
+    } else {
+        stack.push((a, da));
+        stack.push((b, db));
+    }
+}
+
 /// The nearest primitive to `p` among those of `bvh`, where `distance(i)` is the distance to
 /// the primitive at BVH position `i` (`primitive_indices`), `id(i)` its index for ties and
 /// for the result, and every primitive lies inside the boxes of the nodes above it. None for
@@ -84,21 +101,7 @@ pub fn nearest_in(
                 }
             }
         } else {
-            let (a, b) = (node.first_index, node.first_index + 1);
-            let (la, ha) = node_box(bvh, a);
-            let (lb_, hb) = node_box(bvh, b);
-            let (da, db) = (
-                point_box_distance(p, la, ha),
-                point_box_distance(p, lb_, hb),
-            );
-            // the nearer child on top, visited first
-            if da <= db {
-                stack.push((b, db));
-                stack.push((a, da));
-            } else {
-                stack.push((a, da));
-                stack.push((b, db));
-            }
+            push_children(bvh, p, node.first_index, &mut stack);
         }
     }
     best
@@ -132,20 +135,7 @@ pub fn nearest_below(
                 best = best.min(distance(i));
             }
         } else {
-            let (a, b) = (node.first_index, node.first_index + 1);
-            let (la, ha) = node_box(bvh, a);
-            let (lb_, hb) = node_box(bvh, b);
-            let (da, db) = (
-                point_box_distance(p, la, ha),
-                point_box_distance(p, lb_, hb),
-            );
-            if da <= db {
-                stack.push((b, db));
-                stack.push((a, da));
-            } else {
-                stack.push((a, da));
-                stack.push((b, db));
-            }
+            push_children(bvh, p, node.first_index, &mut stack);
         }
     }
     best
