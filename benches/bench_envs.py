@@ -14,6 +14,7 @@ Usage::
     python benches/bench_envs.py                  # 1 env, 8 native, 8 sync; 200 steps each
     python benches/bench_envs.py --batch 8 --steps 400 --split
     python benches/bench_envs.py --branches --shading   # force both on
+    python benches/bench_envs.py --leaves-only          # branches off
 """
 
 from __future__ import annotations
@@ -113,12 +114,13 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1, help="seed 1: 11 trees, 1.6e5 leaves")
     ap.add_argument("--x-m", type=float, default=12.0, help="where the drones hover (m)")
     ap.add_argument("--branches", action="store_true", help="branches on, whatever the default")
+    ap.add_argument("--leaves-only", action="store_true", help="branches off")
     ap.add_argument("--shading", action="store_true", help="shading on, whatever the default")
     ap.add_argument("--split", action="store_true", help="time the parts of one env's step")
     args = ap.parse_args()
     kw: dict[str, Any] = {}
-    if args.branches:
-        kw["branches"] = True
+    if args.branches or args.leaves_only:
+        kw["branches"] = not args.leaves_only
     if args.shading:
         kw["shading"] = Shading()
     probe = EchoFlightEnv(**kw)

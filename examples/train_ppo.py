@@ -65,6 +65,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0, help="training seed")
     ap.add_argument("--eval-seed", type=int, default=1_000_000, help="first evaluation forest")
     ap.add_argument("--out", type=Path, default=Path("ppo-out"))
+    ap.add_argument(
+        "--eval-only", action="store_true", help="evaluate the agent saved in --out, untrained"
+    )
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     env_kw = {"density": args.density}
@@ -74,22 +77,26 @@ def main() -> None:
         norm_obs=True,
         norm_reward=True,
     )
-    model = PPO(
-        "MultiInputPolicy",
-        train,
-        n_steps=256,
-        batch_size=256,
-        learning_rate=3e-4,
-        gamma=0.99,
-        seed=args.seed,
-        verbose=1,
-        device="cpu",
-    )
     t0 = time.perf_counter()
-    model.learn(total_timesteps=args.steps)
+    if args.eval_only:
+        train = VecNormalize.load(str(args.out / "vecnormalize.pkl"), train.venv)
+        model = PPO.load(args.out / "ppo_echoflight", device="cpu")
+    else:
+        model = PPO(
+            "MultiInputPolicy",
+            train,
+            n_steps=256,
+            batch_size=256,
+            learning_rate=3e-4,
+            gamma=0.99,
+            seed=args.seed,
+            verbose=1,
+            device="cpu",
+        )
+        model.learn(total_timesteps=args.steps)
+        model.save(args.out / "ppo_echoflight")
+        train.save(str(args.out / "vecnormalize.pkl"))
     train_s = time.perf_counter() - t0
-    model.save(args.out / "ppo_echoflight")
-    train.save(str(args.out / "vecnormalize.pkl"))
     train.training = False
 
     def ppo(obs: dict[str, np.ndarray]) -> np.ndarray:
