@@ -76,6 +76,8 @@ __all__ = [
 #: Whether the trees' branches and trunks echo (and block, with shading) by default.
 DEFAULT_BRANCHES = True
 #: The shading of echoes by default (None: every scatterer echoes as though it stood alone).
+#: None because ``simulate`` does not yet shade what receivers at their own places hear (it
+#: refuses the two ears with shading); ``Shading()`` once it does.
 DEFAULT_SHADING: Shading | None = None
 
 #: The ears' spacing (m) along the body's left axis: a few centimetres, as on a small drone
