@@ -46,39 +46,42 @@ def main() -> None:
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     seeds = range(args.first_seed, args.first_seed + args.episodes)
-    rows, examples = [], {}
+    examples: dict = {}
+    envs = {d: EchoFlightEnv(density=d) for d in args.densities}
+    counts = {(d, name): dict.fromkeys(OUTCOMES, 0) for d in args.densities for name in POLICIES}
     t0 = time.perf_counter()
-    for density in args.densities:
-        env = EchoFlightEnv(density=density)
-        counts = {name: dict.fromkeys(OUTCOMES, 0) for name in POLICIES}
-        for seed in seeds:
+    # seed by seed, every density and policy: a run stopped early has as many of each
+    for k, seed in enumerate(seeds):
+        for density, env in envs.items():
             for name, make in POLICIES.items():
                 outcome, path, _ = episode(env, make, seed)
-                counts[name][outcome] += 1
+                counts[(density, name)][outcome] += 1
                 if seed == args.first_seed:
                     examples[(density, name)] = (path, outcome)
-        for name in POLICIES:
-            c = counts[name]
-            rows.append(
-                f"| {density:g} | {name} | {c['is_success'] / args.episodes:.2f} | "
-                f"{c['collision'] / args.episodes:.2f} | "
-                f"{c['out_of_bounds'] / args.episodes:.2f} | "
-                f"{c['truncated'] / args.episodes:.2f} |"
-            )
-        print(f"density {density:g}: done after {time.perf_counter() - t0:.0f} s", flush=True)
-    table = "\n".join(
+        table = _table(seeds.start, k + 1, counts)
+        (args.out / "baselines.md").write_text(table + "\n")
+        print(f"{k + 1} forests per density after {time.perf_counter() - t0:.0f} s", flush=True)
+    print(table)
+    _picture(args, examples)
+
+
+def _table(first: int, n: int, counts: dict) -> str:
+    """The Markdown table of the rates over the ``n`` forests of seeds ``first`` onward."""
+    rows = [
+        f"| {density:g} | {name} | {c['is_success'] / n:.2f} | {c['collision'] / n:.2f} | "
+        f"{c['out_of_bounds'] / n:.2f} | {c['truncated'] / n:.2f} |"
+        for (density, name), c in counts.items()
+    ]
+    return "\n".join(
         [
-            f"Seeds {seeds.start}..{seeds.stop - 1} (reset(seed=s)), {args.episodes} forests "
-            "per density, default EchoFlightEnv otherwise.",
+            f"Seeds {first}..{first + n - 1} (reset(seed=s)), {n} forests per density, default "
+            "EchoFlightEnv otherwise.",
             "",
             "| density (trees/m^2) | policy | success | collision | out of bounds | time out |",
             "|---|---|---|---|---|---|",
             *rows,
         ]
     )
-    (args.out / "baselines.md").write_text(table + "\n")
-    print(table)
-    _picture(args, examples)
 
 
 def _picture(args: argparse.Namespace, examples: dict) -> None:

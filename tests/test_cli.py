@@ -51,6 +51,7 @@ NPZ_KEYS = {
     "spectrum", "freqs", "band_bins", "impulse", "times", "n_leaves", "positions", "forward",
     "up", "left", "pulse_times", "sample_indices", "tree_positions", "path_points", "seed",
     "config_toml", "config_json", "sonar_json", "scene_json", "batecho_version", "clearance_m",
+    "min_clearance_m", "min_clearance_time_s",
 }  # fmt: skip
 
 
@@ -202,6 +203,29 @@ def test_flown_circle_pulses_at_the_rate():
     duration = 2 * math.pi * 6.2 / 4.0
     assert len(st.plan.poses) == math.floor(duration * 2.0) + 1
     assert st.plan.flight.position_error.max() < 0.1
+
+
+def test_a_flown_flight_reports_its_smallest_clearance_over_every_step(tmp_path, capsys):
+    text = TINY.replace("n_pulses = 5", 'mode = "flown"\nquadrotor = "research"\ndt = 0.005\n'
+                        "speed = 4.0\npulse_rate_hz = 2.0")  # fmt: skip
+    scene = _write(tmp_path, text)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "out"), "--no-plots"]) == 0
+    printed = capsys.readouterr().out
+    with np.load(tmp_path / "out" / "echoes.npz") as z:
+        least, when = float(z["min_clearance_m"]), float(z["min_clearance_time_s"])
+        path, times = z["flight_positions"], z["flight_times"]
+        pulses = z["clearance_m"]
+    st = setup_scenefile(SceneFile.from_string(text))
+    d = st.scene.clearance(path)
+    assert least == float(d.min()) and when == float(times[np.argmin(d)])
+    assert least <= float(pulses.min())
+    assert f"min_clearance_m: {least:.3f} m at t = {when:.3f} s" in printed
+
+
+def test_pulses_by_count_report_the_smallest_of_their_clearances(tiny_out):
+    with np.load(tiny_out / "echoes.npz") as z:
+        assert float(z["min_clearance_m"]) == float(z["clearance_m"].min())
+        assert np.isnan(z["min_clearance_time_s"])
 
 
 def test_line_with_mount_tilts_the_beam():

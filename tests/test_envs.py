@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+import batecho
 from batecho.envs import ENV_ID, EchoFlightEnv
 from batecho.envs.baselines import blind, echo_reactive
+from batecho.envs.echo_flight import DEFAULT_BRANCHES, DEFAULT_SHADING
 
 #: A small forest that grows in a fraction of a second: one tree variant of three branches.
 SMALL = {
@@ -198,6 +200,48 @@ def test_sync_vector_envs_step_together():
 def test_impossible_parameters_are_refused_by_name(kwargs, word):
     with pytest.raises(ValueError, match=word):
         EchoFlightEnv(**kwargs)
+
+
+def test_the_drone_hears_with_two_ears_and_the_trees_echo_with_their_wood_by_default():
+    env = EchoFlightEnv(**SMALL)
+    env.reset(seed=4)
+    assert env.sonar.n_receivers == 2 and env.branches == DEFAULT_BRANCHES
+    assert env.sonar.shading == DEFAULT_SHADING == env.shading
+    left, right = env.sonar.receivers
+    assert left.offset_m[1] > 0 > right.offset_m[1]  # the left ear first
+    if DEFAULT_BRANCHES:
+        assert env.echo_scene().n_branches > 0
+
+
+def test_the_ears_hear_a_tree_on_the_left_louder_in_the_left_ear():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    env.reset(seed=0)
+    p = env.drone_state()[0:3]
+    leaves = batecho.Leaves(
+        p + np.array([[2.0, 0.8 + 0.05 * k, 0.02 * k] for k in range(20)]),
+        np.tile([-1.0, -0.4, 0.0], (20, 1)),
+        np.full(20, 0.03),
+    )
+    echoes = batecho.simulate(leaves, env.sonar, batecho.Poses(p, [1.0, 0.0, 0.0]))
+    left, right = np.abs(echoes.impulse[0]).max(axis=-1)
+    assert left > 2.0 * right
+
+
+@pytest.mark.parametrize(
+    ("sonar", "word"),
+    [
+        (batecho.Sonar(fs=200e3, n_samples=6000), "two receivers"),
+        (batecho.Sonar.binaural(0.05, 25.0, n_samples="auto", max_range_m=5.0), "fixed record"),
+    ],
+)
+def test_a_sonar_without_two_ears_or_a_fixed_record_is_refused(sonar, word):
+    with pytest.raises(ValueError, match=word):
+        EchoFlightEnv(sonar=sonar)
+
+
+def test_shading_must_be_a_shading():
+    with pytest.raises(TypeError, match="shading"):
+        EchoFlightEnv(shading=0.5)
 
 
 def test_a_nan_action_is_refused():

@@ -23,6 +23,7 @@ from batecho.paper import (
     paper_figures,
     table1,
 )
+from batecho.paper.settings import PAPER_CLEARANCE_M
 
 # ---------------------------------------------------------------- empty and full lobes
 
@@ -237,6 +238,25 @@ def test_paper_figures_writes_decodable_pngs_and_data(paper_run):
     with np.load(written["data"]) as z:
         assert not np.any(z["fig05_impulse"])  # the empty lobe: exactly zero
         assert np.all(z["fig09_n_leaves"] >= 0) and z["fig09_impulses"].shape[0] == 4
+
+
+def test_paper_figures_report_each_paths_smallest_clearance(paper_run):
+    written, _ = paper_run
+    with np.load(written["data"]) as z:
+        settings = json.loads(str(z["settings_json"]))
+        run = z["straight_run_positions"]
+    got = settings["min_clearance_m"]
+    assert set(got) == {
+        "one_tree_circle",
+        "two_trees_circle",
+        "fig10_2_trees_circle",
+        "fig10_3_trees_circle",
+        "straight_run",
+    }
+    # every path keeps the paper's margin, and the run ends that far outside the crown
+    assert all(d >= PAPER_CLEARANCE_M - 1e-9 for d in got.values())
+    assert got["straight_run"] == pytest.approx(PAPER_CLEARANCE_M, abs=0.05)
+    assert len(run) == 24
 
 
 def test_paper_panels_with_hidden_ticks_carry_no_axis_label(paper_run):

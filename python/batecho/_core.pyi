@@ -35,6 +35,7 @@ class Scene:
     @property
     def n_nodes(self) -> int: ...
     def clearance(self, points: _F64) -> tuple[_F64, npt.NDArray[np.int64]]: ...
+    def min_clearance(self, points: _F64, upper: float) -> float: ...
 
 class Sonar:
     """A validated sonar with its derived tables (see ``batecho.Sonar``)."""
@@ -80,6 +81,17 @@ class Sonar:
     @property
     def absorption_db_per_m(self) -> _F64 | None: ...
 
+def simulate_many(
+    scenes: list[Scene],
+    sonar: Sonar,
+    positions: list[_F64],
+    forward: list[_F64],
+    up: list[_F64],
+    left: list[_F64],
+    search: str,
+    method: str,
+    tol: float,
+) -> list[tuple[npt.NDArray[np.complex128], npt.NDArray[np.uint64]]]: ...
 def simulate(
     scene: Scene,
     sonar: Sonar,

@@ -3,6 +3,7 @@
 //! with branches or a sonar that shades takes [`scatter`]'s path per pose; without either, the
 //! leaves' path is the paper model's, unchanged.
 
+pub mod many;
 pub mod receivers;
 pub mod scatter;
 

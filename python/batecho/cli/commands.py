@@ -223,6 +223,12 @@ def _summary(res) -> None:
             f"(pulse {i}, nearest {cl.part(i)}; margin "
             f"{st.scenefile.config['flight']['min_clearance_m']:g} m)"
         )
+    if res.min_clearance_m is not None:
+        when = (
+            "" if res.min_clearance_time_s is None else f" at t = {res.min_clearance_time_s:.3f} s"
+        )
+        what = "every recorded step of the flight" if st.plan.flight is not None else "the pulses"
+        print(f"min_clearance_m: {res.min_clearance_m:.3f} m{when} (over {what})")
 
 
 # --------------------------------------------------------------------------- simulate

@@ -13,17 +13,22 @@ controller tracks it through the quadrotor's full dynamics (:class:`~batecho.Qua
 RK4 steps of ``dt``); at the end of the interval the sonar sends one pulse and both ears
 record its echoes.
 
-Until the issues on two ears and on branch shading land, each "ear" is the monostatic sonar
-``sonar`` (one :func:`~batecho.simulate` call for both) with its beam turned ``ear_yaw_deg`` to
-its side of the heading (a :class:`~batecho.SonarMount`), and the forest's trees are leaves
-and bark without branch surfaces in the echoes. Collisions count leaves and bark
-(:meth:`~batecho.Forest.clearance`) and the ground.
+The drone's sonar (:func:`default_sonar`) sits at its centre, looking along its nose, and has
+two ears of its own (:meth:`~batecho.Sonar.binaural`): ``ear_separation_m`` apart along the
+body's left axis, each turned ``ear_yaw_deg`` outward, so that the nearer side's echoes are the
+louder in its ear. The forest's trees echo from their leaves and, with ``branches``, their
+branches and trunks (docs/model.md §9); with ``shading``, leaves and branches in the way dim or
+silence what lies behind them (docs/model.md §10). :data:`DEFAULT_BRANCHES` and
+:data:`DEFAULT_SHADING` are the defaults of both. Collisions count leaves, branches (with
+``branches``) and bark (:meth:`~batecho.Scene.min_clearance`,
+:meth:`~batecho.forest.clearance.BarkGrid.set_clearance`) and the ground.
 
 The observation (a Dict, float32):
 
 - ``echoes`` (2, ``n_range_bins``): each ear's echo envelope (docs/model.md §5, the analytic
-  signal of the impulse response) in dB re 1 (relative pressure), the largest in each of
-  ``n_range_bins`` equal range bins from 0 to the sonar's reach, clipped to
+  signal of the impulse response, sampled four times finer than its Nyquist rate:
+  :func:`~batecho.echoes.envelope.band_envelope`) in dB re 1 (relative pressure), the largest
+  in each of ``n_range_bins`` equal range bins from 0 to the sonar's reach, clipped to
   [``floor_db``, ``ceiling_db``]; row 0 the left ear, row 1 the right;
 - ``velocity`` (3,): the body-frame velocity (forward, left, up), m/s (clipped to +-20);
 - ``attitude`` (3,): roll, pitch and yaw (rad, ZYX Euler angles of body -> world);
@@ -47,16 +52,39 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..echoes.simulate import simulate
+from ..echoes.envelope import envelope_stride
 from ..flight.mount import SonarMount
 from ..flight.poses import Poses
 from ..flight.sim import QuadrotorSim
 from ..flight.trajectories import Hover
 from ..flight.vehicle import Quadrotor
 from ..forest.forest import Forest
+from ..forest.scene import Scene
+from ..sonar.shading import Shading
 from ..sonar.sonar import Sonar
+from .pulses import ENVELOPE_OVERSAMPLING, EchoBins, echo_levels, echo_levels_db
 
-__all__ = ["CLEARANCE_HORIZON_M", "EchoFlightEnv", "default_sonar", "echo_levels_db"]
+__all__ = [
+    "CLEARANCE_HORIZON_M",
+    "DEFAULT_BRANCHES",
+    "DEFAULT_SHADING",
+    "EchoFlightEnv",
+    "default_sonar",
+    "echo_levels_db",
+]
+
+#: Whether the trees' branches and trunks echo (and block, with shading) by default.
+DEFAULT_BRANCHES = True
+#: The shading of echoes by default (None: every scatterer echoes as though it stood alone).
+#: None because ``simulate`` does not yet shade what receivers at their own places hear (it
+#: refuses the two ears with shading); ``Shading()`` once it does.
+DEFAULT_SHADING: Shading | None = None
+
+#: The ears' spacing (m) along the body's left axis: a few centimetres, as on a small drone
+#: (a bat's ears are 1-2 cm apart).
+EAR_SEPARATION_M = 0.05
+#: Each ear's turn outward (deg), as a bat's pinnae point to either side of the call's axis.
+EAR_YAW_DEG = 25.0
 
 #: Clearances (m) in ``info["clearance_m"]`` are exact up to this and clipped to it.
 CLEARANCE_HORIZON_M = 2.0
@@ -68,33 +96,24 @@ MAX_OBSERVED_SPEED_MPS = 20.0
 _MAX_DRAWS = 50
 
 
-def default_sonar() -> Sonar:
-    """The environment's sonar: the paper's (30 deg beam, 60-80 kHz, detectable lobe with a
-    10 m reach) with a record that just covers the reach (200 kHz sampling, 12,000 samples =
-    60 ms, 10.2 m)."""
-    return Sonar(beamwidth_deg=30.0, fs=200e3, n_samples=12_000)
-
-
-def echo_levels_db(
-    envelope: np.ndarray,
-    ranges: np.ndarray,
-    reach_m: float,
-    n_bins: int,
-    floor_db: float,
-    ceiling_db: float,
-) -> np.ndarray:
-    """(p, n_bins) the largest of each row of ``envelope`` (p, n) in each of ``n_bins`` equal
-    range bins over [0, ``reach_m``) (``ranges`` (n,) m, increasing), in dB re 1, clipped to
-    [``floor_db``, ``ceiling_db``]; an empty bin is ``floor_db``."""
-    edges = np.searchsorted(ranges, np.linspace(0.0, reach_m, n_bins + 1))
-    out = np.full((len(envelope), n_bins), floor_db)
-    tiny = 10.0 ** (floor_db / 20.0)
-    for b in range(n_bins):
-        lo, hi = edges[b], edges[b + 1]
-        if hi > lo:
-            peak = envelope[:, lo:hi].max(axis=1)
-            out[:, b] = 20.0 * np.log10(np.maximum(peak, tiny))
-    return np.clip(out, floor_db, ceiling_db)
+def default_sonar(
+    ear_separation_m: float = EAR_SEPARATION_M,
+    ear_yaw_deg: float = EAR_YAW_DEG,
+    shading: Shading | None = DEFAULT_SHADING,
+) -> Sonar:
+    """The environment's sonar: the paper's (30 deg beam, 60-80 kHz, the detectable lobe) with
+    two ears (:meth:`~batecho.Sonar.binaural`, each with the emitter's 30 deg pattern), a
+    reach cut to 5 m (``max_range_m``; 3 s of flight at the top speed) and a record that
+    just covers it (200 kHz sampling, 6,000 samples = 30 ms, 5.1 m)."""
+    return Sonar.binaural(
+        ear_separation_m,
+        ear_yaw_deg,
+        beamwidth_deg=30.0,
+        fs=200e3,
+        n_samples=6_000,
+        max_range_m=5.0,
+        shading=shading,
+    )
 
 
 def _yaw(R: np.ndarray) -> float:
@@ -116,7 +135,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     """Fly a quadrotor across a forest by its echoes (module docstring; ``batecho/EchoFlight-v0``).
 
     Lengths in m, speeds in m/s, rates in rad/s, times in s. ``sonar``: a
-    :class:`~batecho.Sonar` (default :func:`default_sonar`); ``quadrotor``: a
+    :class:`~batecho.Sonar` with two receivers, the left ear first, and a fixed record
+    (default :func:`default_sonar` of ``ear_separation_m`` and ``ear_yaw_deg``), its shading
+    set to ``shading``; ``branches``: whether branches and trunks echo; ``quadrotor``: a
     :class:`~batecho.Quadrotor` (default :meth:`~batecho.Quadrotor.crazyflie`);
     ``tree_params``: keyword arguments of :func:`~batecho.grow_tree`; ``variants``: distinct
     trees grown per forest (each placed tree one of them, turned and scaled).
@@ -142,7 +163,10 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         max_yaw_rate: float = 1.5,
         dt: float = 1e-3,
         n_range_bins: int = 32,
-        ear_yaw_deg: float = 25.0,
+        ear_separation_m: float = EAR_SEPARATION_M,
+        ear_yaw_deg: float = EAR_YAW_DEG,
+        branches: bool = DEFAULT_BRANCHES,
+        shading: Shading | None = DEFAULT_SHADING,
         floor_db: float = -100.0,
         ceiling_db: float = 20.0,
         effort_weight: float = 0.01,
@@ -204,21 +228,55 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             float(collision_penalty),
             float(success_reward),
         )
-        self.sonar = default_sonar() if sonar is None else sonar
-        if not isinstance(self.sonar, Sonar):
-            raise TypeError(f"sonar must be a batecho.Sonar, got {type(self.sonar).__name__}")
+        if not isinstance(branches, bool):
+            raise TypeError(f"branches must be True or False, got {branches!r}")
+        if shading is not None and not isinstance(shading, Shading):
+            raise TypeError(f"shading must be None or a batecho.Shading, got {shading!r}")
+        if sonar is None:
+            sonar = default_sonar(ear_separation_m, ear_yaw_deg, shading)
+        if not isinstance(sonar, Sonar):
+            raise TypeError(f"sonar must be a batecho.Sonar, got {type(sonar).__name__}")
+        if sonar.n_receivers != 2:
+            raise ValueError(
+                f"sonar must have two receivers, the left ear first (Sonar.binaural), got "
+                f"{sonar.n_receivers}"
+            )
+        if sonar.is_auto:
+            raise ValueError("sonar must have a fixed record (an int n_samples), not 'auto'")
+        self.sonar = sonar if sonar.shading == shading else sonar.replace(shading=shading)
+        self.branches, self.shading = branches, shading
+        self.ear_separation_m, self.ear_yaw_deg = float(ear_separation_m), float(ear_yaw_deg)
         self.quadrotor = Quadrotor.crazyflie() if quadrotor is None else quadrotor
         self.tree_params = dict(tree_params or {})
         self.variants = int(variants)
         self.method, self.tol = method, float(tol)
-        self.ears = (SonarMount(yaw_deg=ear_yaw_deg), SonarMount(yaw_deg=-ear_yaw_deg))
-        reach = self.sonar.reach_m()
-        if not self.sonar.is_auto:
-            reach = min(reach, self.sonar.record_range_m)
+        #: Each ear's place and facing on the body (left, right), for pictures.
+        self.ears = tuple(
+            SonarMount(
+                offset=r.offset_m,
+                yaw_deg=0.0 if r.beam is None else r.beam.center_deg[0],
+                pitch_deg=0.0 if r.beam is None else r.beam.center_deg[1],
+            )
+            for r in self.sonar.receivers or ()
+        )
+        reach = min(self.sonar.reach_m(), self.sonar.record_range_m)
         if not math.isfinite(reach):
             raise ValueError("the sonar must have a finite reach (a cone lobe needs max_range_m)")
         #: The range the echo bins cover (m): the lobe's reach, within the record.
         self.reach_m = float(reach)
+        n = int(self.sonar.n_samples)
+        #: The envelope is taken at every this many samples (:mod:`batecho.envs.pulses`).
+        self.envelope_stride = envelope_stride(
+            n, self.sonar.fs, self.sonar.band_hz, ENVELOPE_OVERSAMPLING
+        )
+        times = np.arange(0, n, self.envelope_stride) / self.sonar.fs
+        self.echo_bins = EchoBins(
+            self.sonar.sound_speed * times / 2.0,
+            self.reach_m,
+            self.n_range_bins,
+            self.floor_db,
+            self.ceiling_db,
+        )
         self.render_mode = render_mode
 
         self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
@@ -241,6 +299,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.forest: Forest | None = None
         self._forests: dict[int, Forest] = {}
         self.sim: QuadrotorSim | None = None
+        self._state: np.ndarray | None = None
         self.goal = np.zeros(3)
         self.path: list[np.ndarray] = []
         self._echo_db = np.full((2, self.n_range_bins), self.floor_db)
@@ -297,6 +356,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             self.sim = QuadrotorSim(self.quadrotor, state)
         else:
             self.sim.reset(state)
+        self._state = self.sim.state.vectors[0]
         self._steps = 0
         self.path = [self.start.copy()]
         self._echo_db = self._pulse()
@@ -312,8 +372,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         if a.shape != (4,) or not np.all(np.isfinite(a)):
             raise ValueError(f"action must be 4 finite numbers, got {action!r}")
         u = np.clip(a, -1.0, 1.0) * self.scales
-        assert self.sim is not None
-        psi = _yaw(self.sim.state.attitudes[0])
+        psi = _yaw(self.drone_state()[6:15].reshape(3, 3))
         c, s = math.cos(psi), math.sin(psi)
         return np.array([c * u[0] - s * u[1], s * u[0] + c * u[1], u[2]]), float(u[3])
 
@@ -322,9 +381,20 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise RuntimeError("call reset() before step()")
         velocity, yaw_rate = self.command(action)
         before = self._goal_distance()
-        self.sim.step(velocity, yaw_rate, dt=self.dt, n_steps=self.n_substeps)
+        self._state = self.sim.step(
+            velocity, yaw_rate, dt=self.dt, n_steps=self.n_substeps
+        ).vectors[0]
+        ends = self.after_flight(action, before, self.sim.path[0])
+        self._echo_db = self._pulse()
+        return self._observation(), *ends
+
+    def after_flight(
+        self, action: Any, before: float, path: np.ndarray
+    ) -> tuple[float, bool, bool, dict[str, Any]]:
+        """The reward, terminated, truncated and info of a step whose flight took the drone
+        along ``path`` (k, 3) (its positions after each RK4 step) from ``before`` m off the
+        goal; the drone's state is already the step's last."""
         self._steps += 1
-        path = self.sim.path[0]
         self.path.append(path[-1].copy())
         clearance = self._path_clearance(path)
         collision = clearance < self.drone_radius_m
@@ -345,9 +415,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             reward += self.success_reward
         terminated = collision or out or success
         truncated = not terminated and self._steps >= self.max_steps
-        self._echo_db = self._pulse()
         return (
-            self._observation(),
             float(reward),
             bool(terminated),
             bool(truncated),
@@ -355,72 +423,63 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         )
 
     def _path_clearance(self, path: np.ndarray) -> float:
-        """The smallest distance (m) from ``path`` (k, 3) to the forest's leaves and bark and
-        to the ground, exact up to :data:`CLEARANCE_HORIZON_M` and clipped there."""
+        """The smallest distance (m) from ``path`` (k, 3) to the forest's leaves, branches
+        (with ``branches``) and bark and to the ground, exact up to
+        :data:`CLEARANCE_HORIZON_M` and clipped there."""
         assert self.forest is not None
         d = min(float(path[:, 2].min()), CLEARANCE_HORIZON_M)
         if self.forest.n_trees:
-            d = min(d, float(self.forest.scene().clearance(path).min()))
+            d = self.echo_scene().min_clearance(path, d)
             d = min(d, self.forest.bark_grid().set_clearance(path, d))
         return d
 
     # -- what the drone senses ----------------------------------------------------------------
 
+    def drone_state(self) -> np.ndarray:
+        """The drone's state now, (22,) in :meth:`~batecho.QuadState.vector`'s layout."""
+        if self._state is None:
+            raise RuntimeError("call reset() before step()")
+        return self._state
+
+    def echo_scene(self) -> Scene:
+        """The scene that echoes: the forest's leaves and, with ``branches``, its wood."""
+        assert self.forest is not None
+        return self.forest.scene(branches=self.branches)
+
     def ear_poses(self) -> Poses:
-        """The two ears' sonar poses now: left, then right."""
-        assert self.sim is not None
-        st = self.sim.state
-        p, R = st.positions[0], st.attitudes[0]
+        """The two ears' poses now (their places and the directions they face): left, then
+        right."""
+        st = self.drone_state()
+        p, R = st[0:3], st[6:15].reshape(3, 3)
         return Poses.concatenate([ear.pose(p, R) for ear in self.ears])
 
     def _pulse(self) -> np.ndarray:
-        assert self.forest is not None
-        if self.forest.n_trees == 0:
-            return np.full((2, self.n_range_bins), self.floor_db)
-        echoes = simulate(
-            self.forest.scene(),
-            self.sonar,
-            self.ear_poses(),
-            method=self.method,
-            tol=self.tol,
-            min_clearance_m=0.0,
-        )
-        return echo_levels_db(
-            echoes.envelope(),
-            echoes.ranges,
-            self.reach_m,
-            self.n_range_bins,
-            self.floor_db,
-            self.ceiling_db,
-        )
+        return echo_levels([self])[0]
 
     def _goal_distance(self) -> float:
-        assert self.sim is not None
-        return float(np.hypot(*(self.goal[:2] - self.sim.state.positions[0, :2])))
+        return float(np.hypot(*(self.goal[:2] - self.drone_state()[0:2])))
 
     def _observation(self) -> dict[str, np.ndarray]:
-        assert self.sim is not None
-        st = self.sim.state
-        R, p = st.attitudes[0], st.positions[0]
+        st = self.drone_state()
+        R, p = st[6:15].reshape(3, 3), st[0:3]
         d = self.goal[:2] - p[:2]
         vmax = self.max_observed_speed_mps
         bearing = _wrap(math.atan2(float(d[1]), float(d[0])) - _yaw(R))
         return {
             "echoes": self._echo_db.astype(np.float32),
-            "velocity": np.clip(R.T @ st.velocities[0], -vmax, vmax).astype(np.float32),
+            "velocity": np.clip(R.T @ st[3:6], -vmax, vmax).astype(np.float32),
             "attitude": _euler_zyx(R).astype(np.float32),
             "goal": np.array([bearing, min(math.hypot(*d), self.max_goal_distance_m)], np.float32),
         }
 
     def _info(self, clearance: float, collision: bool, out: bool, success: bool) -> dict[str, Any]:
-        assert self.sim is not None
         return {
             "clearance_m": clearance,
             "collision": collision,
             "out_of_bounds": out,
             "is_success": success,
             "time_s": self._steps / self.pulse_rate_hz,
-            "position": self.sim.state.positions[0].copy(),
+            "position": self.drone_state()[0:3].copy(),
         }
 
     # -- pictures -----------------------------------------------------------------------------

@@ -3,6 +3,7 @@ branches as cylinder segments."""
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal, overload
 
 import numpy as np
@@ -92,6 +93,20 @@ class Scene:
         pts = vectors(points, "points")
         dist, idx = self._core.clearance(pts)
         return (dist, idx) if return_index else dist
+
+    def min_clearance(self, points: Any, upper_m: float = np.inf) -> float:
+        """The smallest distance (m) from any of ``points`` ((n, 3) or (3,), finite) to a leaf
+        disk or branch cylinder, or ``upper_m`` (>= 0, may be ``inf``) if none is nearer:
+        exactly ``min(upper_m, clearance(points).min())``, found by walking the points in
+        turn on the BVHs, each walk skipping what lies beyond the least distance found so far
+        (a path's clearance at the cost of a few nearest-leaf queries)."""
+        pts = vectors(points, "points")
+        upper = float(upper_m)
+        if math.isnan(upper) or upper < 0:
+            raise ValueError(f"upper_m must be >= 0 (m), got {upper_m!r}")
+        if not len(pts):
+            return upper
+        return float(self._core.min_clearance(pts, upper))
 
     @property
     def build_time_s(self) -> float:

@@ -54,6 +54,12 @@ def _scene_and_impulse(forest, sonar, pose, members, echoes, title3d: str, title
     return fig
 
 
+def _min_clearance(forest, poses: Poses) -> float:
+    """The smallest distance (m) from the pulse positions of ``poses`` to ``forest``'s leaves
+    and bark (:meth:`~batecho.Forest.clearance`)."""
+    return float(forest.clearance(poses.positions).min())
+
+
 def _leaf_centroid(forest) -> np.ndarray:
     return np.asarray(forest.leaves.centers, dtype=np.float64).mean(axis=0)
 
@@ -87,7 +93,8 @@ def paper_figures(
       trunk at 5 m) with the echo image along it; ``straight_run_impulses.png``: 4 of its
       impulse responses.
     * ``paper_figures.npz``: poses, impulse responses and leaf counts behind the figures, the
-      seed, the settings (JSON) and the batecho version.
+      seed, the settings (JSON: among them ``min_clearance_m``, each path's smallest distance
+      from a pulse to leaves or bark) and the batecho version.
 
     Tree positions for two and three trees come from the paper's IPP conditioned on the count;
     the single tree stands at the origin. Leaves within 1 cm of a pulse are left out.
@@ -116,6 +123,7 @@ def paper_figures(
     bw10, bw20, bw50 = PAPER_BEAMWIDTHS_DEG
     Z = PAPER_ALTITUDE_M
     radii: dict[str, float] = {}
+    clearances: dict[str, float] = {}
     steps = ["one tree", "two trees", "three trees", "straight run"]
     wrap = progress or no_progress
     it = iter(wrap(steps, total=len(steps), desc="paper figures"))
@@ -133,6 +141,7 @@ def paper_figures(
             circle(tree_xy, R, Z, n_points=24, heading="fixed", yaw_deg=0.0),
         ]
     )
+    clearances["one_tree_circle"] = _min_clearance(forest1, cands)
     empty = None
     for i in range(len(cands)):
         if len(lobe_members(scene1, s10, cands[i])) == 0:
@@ -264,6 +273,7 @@ def paper_figures(
             ax.set_xlabel("")
         data[f"echo_image_{bw:g}deg_n_leaves"] = ee.n_leaves
     written["echo_image"] = _savefig(fig, out / "echo_image_circle.png", dpi)
+    clearances["two_trees_circle"] = _min_clearance(forest2, pe)
     data["echo_image_angles_deg"] = angles
     data["echo_image_positions"] = pe.positions
     data["echo_image_forward"] = pe.forward
@@ -294,6 +304,7 @@ def paper_figures(
             f"{int(e10.n_leaves.sum()):,} leaf echoes ({bw50:g} deg beam)",
         )
         data[f"fig10_{len(pos)}_trees_n_leaves"] = e10.n_leaves
+        clearances[f"fig10_{len(pos)}_trees_circle"] = _min_clearance(forest, p10)
     written["fig10"] = _savefig(fig, out / "fig10_two_three_trees.png", dpi)
     data["three_trees_positions"] = pos3
 
@@ -337,6 +348,7 @@ def paper_figures(
     data["straight_run_positions"] = pr.positions
     data["straight_run_forward"] = pr.forward
     data["straight_run_n_leaves"] = er.n_leaves
+    clearances["straight_run"] = _min_clearance(forest1, pr)
     for _ in it:
         pass
 
@@ -344,6 +356,7 @@ def paper_figures(
         "seed": int(seed),
         "tree": tree_settings(tree_model, tree_params),
         "radius_m": radii,
+        "min_clearance_m": clearances,
         "radius_rule": f"the paper's {PAPER_RADIUS_M:g} m where it passes "
         f"{PAPER_CLEARANCE_M:g} m outside every crown at {Z:g} m, else the smallest wider "
         "radius that does (batecho.paper.settings.paper_circle_radius)",

@@ -28,6 +28,7 @@ __all__ = [
     "RunResult",
     "SimulationSetup",
     "check_clearance",
+    "flight_min_clearance",
     "run_scenefile",
     "sample_indices",
     "setup_scenefile",
@@ -131,6 +132,27 @@ class RunResult:
     files: list[Path]
     timings_s: dict[str, float]
     clearance: SolidClearance | None = None
+    #: The flight's smallest clearance from leaves and bark (m) and when it occurs (s; None
+    #: for pulses placed by count): see :func:`flight_min_clearance`.
+    min_clearance_m: float | None = None
+    min_clearance_time_s: float | None = None
+
+
+def flight_min_clearance(
+    st: SimulationSetup, clearance: SolidClearance
+) -> tuple[float, float | None]:
+    """The flight's smallest distance (m) from the scene's leaves and bark, and its time (s):
+    over every recorded step of a flown flight, else over the pulses (``clearance``, theirs;
+    the time is the pulse's, or None when the pulses are placed by count)."""
+    fl = st.plan.flight
+    if fl is not None:
+        d = solid_clearance(st.scene_object, fl.positions, scene=st.scene).distance
+        i = int(np.argmin(d))
+        return float(d[i]), float(fl.times[i])
+    d = clearance.distance
+    i = int(np.argmin(d))
+    times = st.plan.pulse_times
+    return float(d[i]), None if times is None else float(times[i])
 
 
 def run_scenefile(
@@ -147,6 +169,8 @@ def run_scenefile(
     them), ``impulse`` (unless ``impulse = false``), ``times``, ``n_leaves``, ``positions``,
     ``forward``, ``up``, ``left``, ``pulse_times`` (empty for pulses placed by count),
     ``sample_indices``, ``clearance_m`` (each pulse's distance to the nearest leaf or bark),
+    ``min_clearance_m`` and ``min_clearance_time_s`` (the flight's smallest such distance over
+    every recorded step when flown, else over the pulses, and its time: NaN by count),
     ``tree_positions``, ``path_points``, ``seed``, ``config_toml`` (the
     file as given), ``config_json`` (every table with its defaults), ``sonar_json``,
     ``scene_json``, ``batecho_version`` and, when flown, ``flight_times``,
@@ -168,6 +192,7 @@ def run_scenefile(
     say("checking the clearance of every pulse from leaves and bark")
     t0 = time.perf_counter()
     clearance = check_clearance(st)
+    least, least_t = flight_min_clearance(st, clearance)
     st.timings_s["clearance_s"] = time.perf_counter() - t0
     say(f"simulating {len(st.plan.poses)} pulses on {st.scene.n_leaves} leaves")
     t0 = time.perf_counter()
@@ -213,6 +238,8 @@ def run_scenefile(
             "pulse_times": np.zeros(0) if st.plan.pulse_times is None else st.plan.pulse_times,
             "sample_indices": idx,
             "clearance_m": clearance.distance,
+            "min_clearance_m": least,
+            "min_clearance_time_s": np.nan if least_t is None else least_t,
             "tree_positions": np.zeros((0, 2)) if st.tree_positions is None else st.tree_positions,
             "path_points": st.plan.path_points,
             "seed": sf.seed,
@@ -247,7 +274,7 @@ def run_scenefile(
         files.append(_write_scene_obj(st, out / "scene.obj"))
     if plots and oc["plots"]:
         files += _plots(st, echoes, idx, out, oc, say)
-    return RunResult(st, echoes, files, timings, clearance)
+    return RunResult(st, echoes, files, timings, clearance, least, least_t)
 
 
 def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:

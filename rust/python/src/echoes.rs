@@ -14,7 +14,7 @@ use crate::scene::PyScene;
 use crate::sonar::PySonar;
 use crate::{rows3, to_py};
 
-fn poses_from(
+pub(crate) fn poses_from(
     positions: &PyReadonlyArray2<'_, f64>,
     forward: &PyReadonlyArray2<'_, f64>,
     up: &PyReadonlyArray2<'_, f64>,
@@ -35,7 +35,7 @@ fn poses_from(
         .collect()
 }
 
-fn search_from(s: &str) -> PyResult<Search> {
+pub(crate) fn search_from(s: &str) -> PyResult<Search> {
     match s {
         "bvh" => Ok(Search::Bvh),
         "brute_force" => Ok(Search::BruteForce),
@@ -43,6 +43,35 @@ fn search_from(s: &str) -> PyResult<Search> {
             "search must be 'bvh' or 'brute_force', got {other:?}"
         ))),
     }
+}
+
+/// The method named `method` ("exact", "fast" or "auto"), the last two with `tol`.
+pub(crate) fn method_from(method: &str, tol: f64) -> PyResult<simulate::Method> {
+    match method {
+        "exact" => Ok(simulate::Method::Exact),
+        "fast" => Ok(simulate::Method::Fast { tol }),
+        "auto" => Ok(simulate::Method::Auto { tol }),
+        other => Err(PyValueError::new_err(format!(
+            "method must be 'exact', 'fast' or 'auto', got {other:?}"
+        ))),
+    }
+}
+
+/// A complex array of `shape` from separate real and imaginary parts (as many as it holds).
+pub(crate) fn complex_array<'py>(
+    py: Python<'py>,
+    shape: &[usize],
+    re: &[f64],
+    im: &[f64],
+) -> Bound<'py, PyArrayDyn<Complex64>> {
+    let v: Vec<Complex64> = re
+        .iter()
+        .zip(im)
+        .map(|(&re, &im)| Complex64::new(re, im))
+        .collect();
+    ArrayD::from_shape_vec(IxDyn(shape), v)
+        .expect("as many values as the shape holds")
+        .into_pyarray(py)
 }
 
 type SimOut<'py> = (
@@ -95,16 +124,7 @@ pub(crate) fn simulate_py<'py>(
 ) -> PyResult<SimOut<'py>> {
     let poses = poses_from(&positions, &forward, &up, &left)?;
     let search = search_from(search)?;
-    let method = match method {
-        "exact" => simulate::Method::Exact,
-        "fast" => simulate::Method::Fast { tol },
-        "auto" => simulate::Method::Auto { tol },
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "method must be 'exact', 'fast' or 'auto', got {other:?}"
-            )))
-        }
-    };
+    let method = method_from(method, tol)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let poses_len = poses.len();
     let out = py

@@ -1,6 +1,7 @@
 //! The Python extension `batecho._core`: conversion between NumPy arrays and the pure-Rust
 //! core, and nothing else. Heavy work runs with the GIL released.
 
+mod batch;
 mod echoes;
 mod flight;
 mod obj;
@@ -74,6 +75,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_class::<sonar::PySonar>()?;
     m.add_function(wrap_pyfunction!(echoes::simulate_py, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::simulate_many_py, m)?)?;
     m.add_function(wrap_pyfunction!(echoes::lobe_members, m)?)?;
     m.add_function(wrap_pyfunction!(echoes::leaf_sights, m)?)?;
     m.add_function(wrap_pyfunction!(echoes::farthest_members, m)?)?;

@@ -97,6 +97,20 @@ impl PyScene {
         Ok((d.into_pyarray(py), i.into_pyarray(py)))
     }
 
+    /// `min_clearance(points (n,3), upper)`: the smallest distance (m) from the points to a
+    /// leaf disk or branch cylinder, or `upper` if none is nearer (exact).
+    fn min_clearance<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+        upper: f64,
+    ) -> PyResult<f64> {
+        let pts = rows3(&points, "points")?;
+        let sc = self.inner.clone();
+        py.detach(move || sc.min_clearance(&pts, upper))
+            .map_err(to_py)
+    }
+
     /// Number of BVH nodes.
     #[getter]
     fn n_nodes(&self) -> usize {

@@ -39,6 +39,23 @@ fn extent(bvh: &Bvh2) -> f64 {
     lo.iter().chain(&hi).fold(0.0, |m: f64, x| m.max(x.abs()))
 }
 
+/// Push the two children of an inner node (the first at BVH position `first`) with their
+/// boxes' distances from `p`, the nearer on top so that it is visited first.
+#[inline(always)]
+fn push_children(bvh: &Bvh2, p: V3, first: u32, stack: &mut Vec<(u32, f64)>) {
+    let (a, b) = (first, first + 1);
+    let (la, ha) = node_box(bvh, a);
+    let (lb, hb) = node_box(bvh, b);
+    let (da, db) = (point_box_distance(p, la, ha), point_box_distance(p, lb, hb));
+    if da <= db {
+        stack.push((b, db));
+        stack.push((a, da));
+    } else {
+        stack.push((a, da));
+        stack.push((b, db));
+    }
+}
+
 /// The nearest primitive to `p` among those of `bvh`, where `distance(i)` is the distance to
 /// the primitive at BVH position `i` (`primitive_indices`), `id(i)` its index for ties and
 /// for the result, and every primitive lies inside the boxes of the nodes above it. None for
@@ -84,21 +101,41 @@ pub fn nearest_in(
                 }
             }
         } else {
-            let (a, b) = (node.first_index, node.first_index + 1);
-            let (la, ha) = node_box(bvh, a);
-            let (lb_, hb) = node_box(bvh, b);
-            let (da, db) = (
-                point_box_distance(p, la, ha),
-                point_box_distance(p, lb_, hb),
-            );
-            // the nearer child on top, visited first
-            if da <= db {
-                stack.push((b, db));
-                stack.push((a, da));
-            } else {
-                stack.push((a, da));
-                stack.push((b, db));
+            push_children(bvh, p, node.first_index, &mut stack);
+        }
+    }
+    best
+}
+
+/// The smaller of `bound` and the distance from `p` to the nearest primitive of `bvh`
+/// (`distance(i)` for the primitive at BVH position `i`): the walk of [`nearest_in`] started
+/// with `bound` as its best, so that it skips every node farther than that by `slack`.
+pub fn nearest_below(
+    bvh: &Bvh2,
+    p: V3,
+    slack: f64,
+    bound: f64,
+    distance: impl Fn(usize) -> f64,
+) -> f64 {
+    if bvh.nodes.is_empty() {
+        return bound;
+    }
+    let mut best = bound;
+    let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
+    let (lo, hi) = node_box(bvh, 0);
+    stack.push((0, point_box_distance(p, lo, hi)));
+    while let Some((ni, lb)) = stack.pop() {
+        if lb > best + slack {
+            continue;
+        }
+        let node = &bvh.nodes[ni as usize];
+        if node.is_leaf() {
+            let first = node.first_index as usize;
+            for i in first..first + node.prim_count as usize {
+                best = best.min(distance(i));
             }
+        } else {
+            push_children(bvh, p, node.first_index, &mut stack);
         }
     }
     best
@@ -116,13 +153,7 @@ impl Scene {
     /// branches), for any number of threads. Points must be finite and within
     /// [`MAX_COORDINATE`] of the origin (as leaves are).
     pub fn clearance(&self, points: &[V3]) -> Result<Vec<Nearest>> {
-        let bad = |p: &V3| !is_finite3(*p) || p.iter().any(|x| x.abs() > MAX_COORDINATE);
-        if let Some(i) = points.iter().position(bad) {
-            return invalid(format!(
-                "point {i} is {:?}; clearance needs finite points within {MAX_COORDINATE:e} m",
-                points[i]
-            ));
-        }
+        check_points(points)?;
         let bvh = &self.bvh;
         let br = &self.branches;
         let (scale, wood_scale) = (extent(bvh), extent(&br.bvh));
@@ -165,6 +196,44 @@ impl Scene {
         };
         Ok(points.par_iter().map(|&p| distance_of(p)).collect())
     }
+
+    /// The smallest clearance of a set of points, or `upper` (m, >= 0, may be infinite) if
+    /// every point is farther than that from every leaf and branch: exactly
+    /// `min(upper, min over points of clearance)`. The points are walked in turn, each walk
+    /// skipping what lies beyond the smallest distance found so far.
+    pub fn min_clearance(&self, points: &[V3], upper: f64) -> Result<f64> {
+        check_points(points)?;
+        if upper.is_nan() || upper < 0.0 {
+            return invalid(format!("upper must be >= 0 (m), got {upper}"));
+        }
+        let (bvh, br) = (&self.bvh, &self.branches);
+        let (scale, wood_scale) = (extent(bvh), extent(&br.bvh));
+        let mut best = upper;
+        for &p in points {
+            let size = p.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
+            best = nearest_below(bvh, p, SLACK * (scale + size), best, |i| {
+                let s = bvh.primitive_indices[i] as usize;
+                point_disk_distance(p, self.centers.get(s), self.normals.get(s), self.radii[s])
+            });
+            best = nearest_below(&br.bvh, p, SLACK * (wood_scale + size), best, |i| {
+                let j = br.bvh.primitive_indices[i] as usize;
+                point_cylinder_distance(p, br.starts[j], br.axes[j], br.lengths[j], br.radii[j])
+            });
+        }
+        Ok(best)
+    }
+}
+
+/// Points must be finite and within [`MAX_COORDINATE`] of the origin (as leaves are).
+fn check_points(points: &[V3]) -> Result<()> {
+    let bad = |p: &V3| !is_finite3(*p) || p.iter().any(|x| x.abs() > MAX_COORDINATE);
+    if let Some(i) = points.iter().position(bad) {
+        return invalid(format!(
+            "point {i} is {:?}; clearance needs finite points within {MAX_COORDINATE:e} m",
+            points[i]
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -233,6 +302,27 @@ mod tests {
             assert_eq!(*g, brute(*p, &c, &n, &r), "point {p:?}");
         }
         assert_eq!(got[400].distance, 0.0);
+    }
+
+    #[test]
+    fn the_smallest_clearance_of_a_set_is_the_least_of_the_points_clearances_or_the_bound() {
+        let (s, _, _, _) = scene(3000, 4);
+        let mut u = uniforms(12);
+        for k in 0..20 {
+            let pts: Vec<V3> = (0..1 + k * 3)
+                .map(|_| [8.0 * u() - 4.0, 8.0 * u() - 4.0, 8.0 * u() - 4.0])
+                .collect();
+            let least = s
+                .clearance(&pts)
+                .unwrap()
+                .iter()
+                .fold(f64::INFINITY, |m, n| m.min(n.distance));
+            for upper in [0.0, 0.05, 0.3, 1.0, f64::INFINITY] {
+                assert_eq!(s.min_clearance(&pts, upper).unwrap(), least.min(upper));
+            }
+        }
+        assert!(s.min_clearance(&[[0.0; 3]], -1.0).is_err());
+        assert!(s.min_clearance(&[[f64::NAN, 0.0, 0.0]], 1.0).is_err());
     }
 
     #[test]

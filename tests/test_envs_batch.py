@@ -1,0 +1,185 @@
+"""The native batch of EchoFlight and the pieces it stands on: a path's smallest clearance
+(Scene.min_clearance) is the least of its points' clearances; the envelope from the band
+spectrum is the Hilbert envelope at its samples; the range bins are the peak of each bin;
+many scenes' pulses in one call are each scene's own; and the batched environments give
+each single environment's results step by step."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_clearance import scenes_and_points
+from test_envs import SMALL
+
+import batecho
+from batecho import _core
+from batecho.echoes.envelope import band_envelope, envelope_stride
+from batecho.envs import ENV_ID, EchoFlightEnv, EchoFlightVectorEnv
+from batecho.envs.pulses import EchoBins
+
+
+@given(scenes_and_points(), st.sampled_from([0.0, 0.01, 0.3, 5.0, np.inf]))
+def test_a_sets_smallest_clearance_is_the_least_of_its_points_or_the_bound(case, upper):
+    leaves, pts = case
+    scene = batecho.Scene(leaves)
+    want = min(upper, float(scene.clearance(pts).min()))
+    assert scene.min_clearance(pts, upper) == want
+
+
+def test_a_sets_smallest_clearance_counts_branches():
+    wood = batecho.Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 2.0]], [0.1])
+    leaves = batecho.Leaves([[5.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]], [0.05])
+    scene = batecho.Scene(leaves, branches=wood)
+    pts = np.array([[1.0, 0.0, 1.0], [0.5, 0.0, 1.0]])
+    assert scene.min_clearance(pts) == pytest.approx(0.4, abs=1e-12)
+    assert scene.min_clearance(pts, 0.2) == 0.2
+    assert scene.min_clearance(np.zeros((0, 3)), 0.7) == 0.7
+
+
+@pytest.mark.parametrize(("upper", "word"), [(-1.0, "upper_m"), (np.nan, "upper_m")])
+def test_a_bad_bound_on_the_smallest_clearance_is_refused_by_name(upper, word):
+    scene = batecho.Scene(batecho.Leaves([[1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.05]))
+    with pytest.raises(ValueError, match=word):
+        scene.min_clearance([[0.0, 0.0, 0.0]], upper)
+
+
+def echoes_of(seed: int, n_samples: int, ears: bool) -> batecho.Echoes:
+    rng = np.random.default_rng(seed)
+    n = 300
+    c = rng.uniform([1.0, -1.0, -1.0], [4.0, 1.0, 1.0], (n, 3))
+    nv = rng.normal(size=(n, 3))
+    leaves = batecho.Leaves(c, nv, rng.uniform(0.005, 0.05, n))
+    kw = {"fs": 200e3, "n_samples": n_samples}
+    sonar = batecho.Sonar.binaural(0.05, 25.0, **kw) if ears else batecho.Sonar(**kw)
+    poses = batecho.Poses(np.zeros((2, 3)), [[1.0, 0.0, 0.0], [1.0, 0.2, 0.1]])
+    return batecho.simulate(batecho.Scene(leaves), sonar, poses)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from([1, 2, 3, 4, 5, 8]), st.booleans())
+def test_the_band_envelope_is_the_hilbert_envelope_at_its_samples(seed, stride, ears):
+    e = echoes_of(seed, 6000, ears)
+    k0 = round(float(e.freqs[0]) * 6000 / e.sonar.fs)
+    got = band_envelope(e.spectrum, k0, 6000, stride)
+    want = e.envelope()[..., ::stride]
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * want.max())
+
+
+def test_a_band_envelope_with_more_bins_than_samples_folds_them():
+    e = echoes_of(1, 6000, False)
+    k0 = round(float(e.freqs[0]) * 6000 / e.sonar.fs)
+    got = band_envelope(e.spectrum, k0, 6000, 20)  # 300 samples, 600 band bins
+    want = e.envelope()[..., ::20]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * want.max())
+
+
+def test_the_envelope_stride_divides_the_record_and_oversamples():
+    assert envelope_stride(6000, 200e3, (60e3, 80e3), 4.0) == 2
+    assert envelope_stride(7, 200e3, (60e3, 80e3), 1.0) == 7
+    assert envelope_stride(6000, 200e3, (60e3, 80e3), 100.0) == 1
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(0, 2**31), st.integers(1, 40), st.floats(0.5, 12.0))
+def test_each_range_bin_holds_the_peak_of_its_samples_in_db(seed, n_bins, reach):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 400))
+    ranges = np.sort(rng.uniform(0.0, 10.0, n))
+    envelope = rng.exponential(1e-3, (2, n)) * (rng.uniform(size=(2, n)) < 0.7)
+    got = EchoBins(ranges, reach, n_bins, -100.0, 20.0).levels(envelope)
+    edges = np.searchsorted(ranges, np.linspace(0.0, reach, n_bins + 1))
+    want = np.full((2, n_bins), -100.0)
+    for b in range(n_bins):
+        if edges[b + 1] > edges[b]:
+            peak = envelope[:, edges[b] : edges[b + 1]].max(axis=1)
+            want[:, b] = 20.0 * np.log10(np.maximum(peak, 1e-5))
+    np.testing.assert_array_equal(got, np.clip(want, -100.0, 20.0))
+
+
+def test_many_scenes_pulses_in_one_call_are_each_scenes_own():
+    rng = np.random.default_rng(4)
+    sonar = batecho.Sonar.binaural(0.05, 25.0, fs=200e3, n_samples=6000)
+    scenes, poses = [], []
+    for k in range(3):
+        c = rng.uniform([1.0, -1.0, -1.0], [4.0, 1.0, 1.0], (200 + 50 * k, 3))
+        leaves = batecho.Leaves(c, rng.normal(size=c.shape), np.full(len(c), 0.02))
+        scenes.append(batecho.Scene(leaves))
+        poses.append(batecho.Poses(rng.normal(0, 0.1, (k + 1, 3)), [1.0, 0.1 * k, 0.0]))
+    out = _core.simulate_many(
+        [s._core for s in scenes],
+        sonar._core,
+        [p.positions for p in poses],
+        [p.forward for p in poses],
+        [p.up for p in poses],
+        [p.left for p in poses],
+        "bvh",
+        "auto",
+        1e-6,
+    )
+    for scene, pose, (spectrum, counts) in zip(scenes, poses, out, strict=True):
+        alone = batecho.simulate(scene, sonar, pose, tol=1e-6, min_clearance_m=0)
+        assert spectrum.tobytes() == alone.spectrum.tobytes()
+        np.testing.assert_array_equal(counts, alone.n_leaves)
+
+
+def test_a_failing_scene_of_many_is_named():
+    sonar = batecho.Sonar(fs=200e3, n_samples=6000)
+    far = batecho.Scene(batecho.Leaves([[3.0, 0.0, 0.0]], [[-1.0, 0.0, 0.0]], [0.02]))
+    near = batecho.Scene(batecho.Leaves([[1e-3, 0.0, 0.0]], [[-1.0, 0.0, 0.0]], [0.02]))
+    pose = batecho.Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    arrays = [pose.positions, pose.forward, pose.up, pose.left]
+    with pytest.raises(ValueError, match="scene 1"):
+        _core.simulate_many(
+            [far._core, near._core], sonar._core, *[[a, a] for a in arrays], "bvh", "exact", 1e-6
+        )
+
+
+def test_make_vec_gives_the_native_batch():
+    envs = gym.make_vec(ENV_ID, num_envs=2, **SMALL)
+    assert isinstance(envs, EchoFlightVectorEnv)
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", **SMALL)
+    assert isinstance(envs, EchoFlightVectorEnv)
+    obs, _ = envs.reset(seed=0)
+    assert envs.observation_space.contains(obs)
+
+
+def test_the_batch_gives_each_single_environments_results_step_by_step():
+    n, steps = 3, 60
+    kw = {**SMALL, "max_time_s": 1.2}  # truncated after 24 steps: autoresets come in
+    batch = EchoFlightVectorEnv(n, **kw)
+    singles = [EchoFlightEnv(**kw) for _ in range(n)]
+    rng = np.random.default_rng(8)
+    actions = rng.uniform(-1.0, 1.0, (steps, n, 4)).astype(np.float32)
+    actions[:, :, 0] = np.abs(actions[:, :, 0])  # mostly forward: into the trees
+    obs, _ = batch.reset(seed=[5, 6, 7])
+    alone = [env.reset(seed=5 + i)[0] for i, env in enumerate(singles)]
+    ended = np.zeros(n, dtype=bool)
+    ends, loudest = 0, -np.inf
+    for t in range(steps):
+        loudest = max(loudest, float(obs["echoes"].max()))
+        for key in obs:
+            assert obs[key].tobytes() == np.stack([o[key] for o in alone]).tobytes()
+        obs, rewards, terminated, truncated, info = batch.step(actions[t])
+        for i, env in enumerate(singles):
+            if ended[i]:
+                alone[i], _ = env.reset()
+                assert rewards[i] == 0.0 and not (terminated[i] or truncated[i])
+                continue
+            alone[i], r, te, tr, inf = env.step(actions[t, i])
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            assert info["clearance_m"][i] == inf["clearance_m"]
+        ended = terminated | truncated
+        ends += int(ended.sum())
+    assert ends >= n  # autoresets were among the steps compared
+    assert loudest > batch.envs[0].floor_db + 40.0  # and echoes were heard
+
+
+def test_the_batch_refuses_actions_of_the_wrong_shape():
+    batch = EchoFlightVectorEnv(2, **{**SMALL, "density": 0.0})
+    batch.reset(seed=0)
+    with pytest.raises(ValueError, match="actions"):
+        batch.step(np.zeros((3, 4)))
