@@ -75,10 +75,9 @@ __all__ = [
 
 #: Whether the trees' branches and trunks echo (and block, with shading) by default.
 DEFAULT_BRANCHES = True
-#: The shading of echoes by default (None: every scatterer echoes as though it stood alone).
-#: None because ``simulate`` does not yet shade what receivers at their own places hear (it
-#: refuses the two ears with shading); ``Shading()`` once it does.
-DEFAULT_SHADING: Shading | None = None
+#: The shading of echoes by default (docs/model.md §10, tau = 0.6, branches block; None: every
+#: scatterer echoes as though it stood alone).
+DEFAULT_SHADING: Shading | None = Shading()
 
 #: The ears' spacing (m) along the body's left axis: a few centimetres, as on a small drone
 #: (a bat's ears are 1-2 cm apart).

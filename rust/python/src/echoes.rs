@@ -83,23 +83,6 @@ type SimOut<'py> = (
     Bound<'py, PyArrayDyn<u64>>,
 );
 
-/// Complex values of the given shape from separate real and imaginary parts.
-fn complex_array<'py>(
-    py: Python<'py>,
-    shape: &[usize],
-    re: &[f64],
-    im: &[f64],
-) -> Bound<'py, PyArrayDyn<Complex64>> {
-    let v: Vec<Complex64> = re
-        .iter()
-        .zip(im)
-        .map(|(&re, &im)| Complex64::new(re, im))
-        .collect();
-    ArrayD::from_shape_vec(IxDyn(shape), v)
-        .expect("one value per element of the shape")
-        .into_pyarray(py)
-}
-
 /// Echoes of every pose: `(spectrum (p, M) complex128, impulse (p, n) or None, n_leaves (p,),
 /// wood spectrum (p, M) or None without branches, n_pieces (p,), n_shaded (p,))`; with `R`
 /// receivers of their own, the first three are `(p, R, M)`, `(p, R, n)` and `(p, R)`, the wood
