@@ -256,3 +256,19 @@ def test_a_branch_thinner_than_min_ka_allows_is_refused_by_name():
     )
     with pytest.raises(ValueError, match="branch 1 has radius"):
         wood(br, Sonar())
+
+
+@pytest.mark.parametrize("ears", [False, True])
+def test_a_trunk_far_longer_than_the_lobe_counts_the_reference_pieces(ears):
+    # a 12 m trunk 2 m ahead of a narrow beam: the core skips whole spans of pieces outside the
+    # lobe, and must count exactly the pieces the reference tests one by one
+    trunk = Scene(None, branches=Branches([[2.0, 0.1, -6.0]], [[2.0, 0.1, 6.0]], [0.08]))
+    sonar = Sonar(beamwidth_deg=20.0)
+    if ears:
+        sonar = Sonar.binaural(0.05, 10.0, beamwidth_deg=20.0)
+    pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.2])
+    want = reference.simulate(trunk, sonar, pose)
+    got = batecho.simulate(trunk, sonar, pose, method="exact")
+    np.testing.assert_array_equal(got.n_pieces, want.n_pieces)
+    assert np.min(got.n_pieces) > 0
+    assert rel_err(got.wood_spectrum, want.wood_spectrum) <= 1e-8

@@ -34,6 +34,22 @@ pub const MAX_PIECES: usize = 1 << 20;
 /// Segments per parallel task.
 const SEGMENT_CHUNK: usize = 256;
 
+/// Pieces whose span is tested as one box before they are tested one by one.
+pub const PIECE_BLOCK: usize = 16;
+
+/// The box (lo, hi) round the span `[k0, k1)` of a segment from `a` along `d` cut into `n`
+/// pieces of radius `radius`: it holds every point within `radius` of the span's axis, so every
+/// piece's reference point, with a margin for rounding. Also the span's ends.
+pub fn block_box(a: V3, d: V3, n: usize, k0: usize, k1: usize, radius: f64) -> (V3, V3, V3, V3) {
+    let (t0, t1) = (k0 as f64 / n as f64, k1 as f64 / n as f64);
+    let s0: V3 = std::array::from_fn(|j| a[j] + t0 * d[j]);
+    let s1: V3 = std::array::from_fn(|j| a[j] + t1 * d[j]);
+    let pad = radius * (1.0 + 1e-9) + 1e-12 * (1.0 + s0[0].abs().max(s1[0].abs()));
+    let lo: V3 = std::array::from_fn(|j| s0[j].min(s1[j]) - pad);
+    let hi: V3 = std::array::from_fn(|j| s0[j].max(s1[j]) + pad);
+    (lo, hi, s0, s1)
+}
+
 /// The pieces of segment `i` that count, appended to `out`; the first too-close one (segment,
 /// distance of its surface) into `too_close`.
 fn segment_pieces(
@@ -83,7 +99,24 @@ fn segment_pieces(
             *too_close = Some((i, r));
         }
     };
+    let bound = AngularBound::new(sonar, pose);
+    // Spans of pieces whose box lies beyond the reach or outside the lobe hold no piece that
+    // counts or is too close: skipped whole (the pieces that count are the same).
+    let span_out = |k0: usize, k1: usize| {
+        let (lo, hi, s0, s1) = block_box(a, d, n, k0, k1, radius);
+        let near = distance_to_segment(p, s0, s1) - radius;
+        near > sonar.max_reach()
+            || (near >= sp.min_range
+                && test_box(sonar, pose, bound.as_ref(), lo, hi) == BoxTest::Outside)
+    };
+    let mut skip_to = 0;
     for k in 0..n {
+        if k % PIECE_BLOCK == 0 && span_out(k, (k + PIECE_BLOCK).min(n)) {
+            skip_to = (k + PIECE_BLOCK).min(n);
+        }
+        if k < skip_to {
+            continue;
+        }
         let t = (2 * k + 1) as f64 / (2 * n) as f64;
         let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
         match piece_sight(p, c, u, radius, piece_len) {

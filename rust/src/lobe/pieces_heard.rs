@@ -16,7 +16,9 @@ use crate::scene::Scene;
 use crate::sonar::{Sonar, TooClose};
 use rayon::prelude::*;
 
-use super::pieces::MAX_PIECES;
+use super::pieces::{block_box, MAX_PIECES, PIECE_BLOCK};
+use crate::lobe::bound::BoxTest;
+use crate::lobe::receivers_bound::test_box_heard;
 
 /// One counting branch piece for one receiver: its segment, the reference point of its echo,
 /// the emitter's and the receiver's views there, its length and radius, the tilt of its axis
@@ -95,7 +97,27 @@ fn segment_pieces_heard(
             *too_close = Some((i, r, who));
         }
     };
+    // Spans of pieces whose box lies beyond the reach or outside every receiver's lobe hold no
+    // piece that counts or is too close: skipped whole (the pieces that count are the same).
+    let span_out = |k0: usize, k1: usize| {
+        let (lo, hi, s0, s1) = block_box(a, d, n, k0, k1, radius);
+        let near_tx = distance_to_segment(pose.position, s0, s1) - radius;
+        if near_tx - half_offset > sonar.max_reach() {
+            return true;
+        }
+        let near = rxs.iter().fold(near_tx, |m, rx| {
+            m.min(distance_to_segment(rx.position, s0, s1) - radius)
+        });
+        near >= sp.min_range && test_box_heard(sonar, pose, rxs, lo, hi) == BoxTest::Outside
+    };
+    let mut skip_to = 0;
     for k in 0..n {
+        if k % PIECE_BLOCK == 0 && span_out(k, (k + PIECE_BLOCK).min(n)) {
+            skip_to = (k + PIECE_BLOCK).min(n);
+        }
+        if k < skip_to {
+            continue;
+        }
         let t = (2 * k + 1) as f64 / (2 * n) as f64;
         let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
         match piece_sight(pose.position, c, u, radius, piece_len) {
