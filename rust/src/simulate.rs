@@ -259,6 +259,21 @@ pub fn simulate(
     Ok(out)
 }
 
+/// The plan of the fused fast path ([`fast_pulse`]) where a pose takes it: many candidates
+/// (for `auto` too: with this many its fixed cost is small against either method's per-leaf
+/// work). Otherwise (None) the members come first, then the cheaper method for their number.
+pub(crate) fn fused_plan<'a>(
+    plan: Option<&'a FastPlan>,
+    method: Method,
+    cands: &Candidates,
+) -> Option<&'a FastPlan> {
+    match (plan, method) {
+        (Some(pl), Method::Fast { .. }) => Some(pl),
+        (Some(pl), Method::Auto { .. }) if cands.len() >= FUSED_MIN_CANDIDATES => Some(pl),
+        _ => None,
+    }
+}
+
 /// The windowed band spectrum of one pose's counting leaves and their number, as the paper
 /// model sums them: by the fused fast path when there are many candidates (or the method is
 /// fast), else from the members by the cheaper method for their number.
@@ -272,16 +287,8 @@ pub(crate) fn leaf_pose(
     cands: &Candidates,
 ) -> Result<(Vec<f64>, Vec<f64>, u64)> {
     let m = sonar.n_bins();
-    // Many candidates: the fast method fused with the lobe test (for `auto` too: with this
-    // many candidates its fixed cost is small against either method's per-leaf work).
-    // Otherwise the members first, then the cheaper method for their number.
-    let fused = match (plan, method) {
-        (Some(_), Method::Fast { .. }) => true,
-        (Some(_), Method::Auto { .. }) => cands.len() >= FUSED_MIN_CANDIDATES,
-        _ => false,
-    };
-    if let (true, Some(pl)) = (fused, plan) {
-        return fast_pulse(scene, sonar, pl, pose, i, cands);
+    if let Some(pl) = fused_plan(plan, method, cands) {
+        return fast_pulse(scene, sonar, pl, pose, i, cands, None);
     }
     let mem = members_of(scene, sonar, pose, i, cands.to_vec())?;
     let (re, im) = match plan {

@@ -61,6 +61,7 @@ fn pulse_chunk(
     pose: &Pose,
     plan: &FastPlan,
     cands: &Candidates,
+    factors: Option<&[f64]>,
     span: std::ops::Range<usize>,
 ) -> Part {
     let (p, glen) = (plan.p, plan.nufft.grid_len());
@@ -101,9 +102,14 @@ fn pulse_chunk(
         }
         lanes.n = 0;
     };
+    let mut pos = span.start;
     let mut blocks = cands.blocks(span);
     let mut v = BlockView::default();
     while let Some((block, consecutive)) = blocks.next_block() {
+        let at = pos;
+        pos += block.len();
+        // lane k's shading factor (1 unshaded)
+        let factor = |k: usize| factors.map_or(1.0, |f| f[at + k]);
         let range = classify_candidates(
             scene,
             sonar,
@@ -119,7 +125,8 @@ fn pulse_chunk(
                     continue;
                 };
                 part.count += 1;
-                let t = leaf_term(sonar, scene, &mb);
+                let mut t = leaf_term(sonar, scene, &mb);
+                t.amp *= factor(k);
                 if !po_leaf(sonar, plan, &t, &mut part.grid) {
                     part.deferred.push(t);
                 }
@@ -131,7 +138,9 @@ fn pulse_chunk(
         let leaf = |k: usize| block[k.min(nb - 1)] as usize;
         let mut bl = PaperLanes {
             n: nb,
-            amp: std::array::from_fn(|k| leaf_amp(sonar, v.gain[k], range[k])),
+            amp: std::array::from_fn(|k| {
+                leaf_amp(sonar, v.gain[k], range[k]) * factor(k.min(nb - 1))
+            }),
             range,
             beta: v.beta,
             a: std::array::from_fn(|k| scene.radii[leaf(k)]),
@@ -168,7 +177,7 @@ fn pulse_chunk(
                         continue;
                     };
                     let t = leaf_term(sonar, scene, &mb);
-                    (bl.amp[k], bl.range[k], bl.beta[k]) = (t.amp, t.range, t.beta);
+                    (bl.amp[k], bl.range[k], bl.beta[k]) = (t.amp * factor(k), t.range, t.beta);
                     paper_route(
                         sonar,
                         paper_regime(&sonar.tables, &t),
@@ -213,7 +222,9 @@ fn sample_terms(scene: &Scene, sonar: &FastSonar, pose: &Pose, cands: &[u32]) ->
 }
 
 /// The windowed band spectrum `(re, im)` of one pose by the fast method, and its number of
-/// counting leaves. `pose_index` only labels errors.
+/// counting leaves. `factors`, by candidate position, scale the counting leaves' amplitudes
+/// (shading's factors, docs/model.md §10; a leaf of factor 0 counts and adds nothing).
+/// `pose_index` only labels errors.
 pub fn fast_pulse(
     scene: &Scene,
     sonar: &FastSonar,
@@ -221,12 +232,13 @@ pub fn fast_pulse(
     pose: &Pose,
     pose_index: usize,
     cands: &Candidates,
+    factors: Option<&[f64]>,
 ) -> Result<(Vec<f64>, Vec<f64>, u64)> {
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run the pulse on a pool thread, so that its parallel
         // steps follow one another there (from outside, each step is injected into the pool
         // and this thread sleeps and wakes in between).
-        return rayon::scope(|_| fast_pulse(scene, sonar, plan, pose, pose_index, cands));
+        return rayon::scope(|_| fast_pulse(scene, sonar, plan, pose, pose_index, cands, factors));
     }
     // The node count, from a sample of the counting leaves (see `fast::choose_nodes`).
     let small_plan;
@@ -263,6 +275,7 @@ pub fn fast_pulse(
                 pose,
                 first,
                 cands,
+                factors,
                 c * cl..n.min((c + 1) * cl),
             )
         })
@@ -376,7 +389,7 @@ mod tests {
             let cands = candidates(&sc, &s, &pose, Search::Bvh);
             for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
                 let plan = FastPlan::new(&s, tol).unwrap();
-                let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands).unwrap();
+                let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands, None).unwrap();
                 assert_eq!(n as usize, mem.len());
                 let err = rel_l2((&re, &im), (&er, &ei));
                 assert!(err <= tol, "{:?} tol {tol:e}: {err:e}", s.params.leaf_model);
@@ -424,7 +437,7 @@ mod tests {
         let cands = Candidates::all(sc.len());
         for tol in [1e-3, 1e-6, 1e-9] {
             let plan = FastPlan::new(&s, tol).unwrap();
-            let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands).unwrap();
+            let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands, None).unwrap();
             assert_eq!(n as usize, mem.len());
             let err = rel_l2((&re, &im), (&er, &ei));
             assert!(err <= tol, "tol {tol:e}: {err:e}");
@@ -439,12 +452,12 @@ mod tests {
         let plan = FastPlan::new(s, 1e-6).unwrap();
         let cands = candidates(&sc, s, &pose, Search::Bvh);
         assert!(cands.len() > 2 * chunk_len(cands.len(), plan.nufft.nf));
-        let a = fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap();
+        let a = fast_pulse(&sc, s, &plan, &pose, 0, &cands, None).unwrap();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap();
-        let b = pool.install(|| fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap());
+        let b = pool.install(|| fast_pulse(&sc, s, &plan, &pose, 0, &cands, None).unwrap());
         assert_eq!(a, b);
     }
 
@@ -484,7 +497,7 @@ mod tests {
         let plan = FastPlan::new(&s, 1e-6).unwrap();
         let cands = candidates(&sc, &s, &pose, Search::Bvh);
         for res in [
-            fast_pulse(&sc, &s, &plan, &pose, 0, &cands).map(|_| ()),
+            fast_pulse(&sc, &s, &plan, &pose, 0, &cands, None).map(|_| ()),
             crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).map(|_| ()),
         ] {
             match res {

@@ -3,6 +3,8 @@
 use crate::error::{Error, Result};
 use crate::lobe::block::classify_block;
 use crate::lobe::block::CB;
+use crate::lobe::block::{classify_candidates, BlockView};
+use crate::lobe::candidates::Candidates;
 use crate::lobe::rule::classify;
 use crate::lobe::rule::Decision;
 use crate::lobe::walk::candidates;
@@ -56,6 +58,79 @@ pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32)
         }
         _ => None,
     }
+}
+
+/// Per chunk of candidates: the positions of the counting leaves, and the first too-close leaf.
+type Positions = (Vec<u32>, Option<(usize, f64)>);
+
+/// The positions in `cands` of the counting leaves among the candidates at positions `span`
+/// (ascending), and the first too-close leaf: the test of [`classify_many`], [`CB`] at a time.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn counting_chunk(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    cands: &Candidates,
+    span: std::ops::Range<usize>,
+) -> Positions {
+    let mut out = Vec::with_capacity(span.len());
+    let mut too_close = None;
+    let mut v = BlockView::default();
+    let mut pos = span.start;
+    let mut blocks = cands.blocks(span);
+    while let Some((block, consecutive)) = blocks.next_block() {
+        classify_candidates(
+            scene,
+            sonar,
+            pose,
+            block,
+            consecutive,
+            &mut too_close,
+            &mut v,
+        );
+        for (k, &i) in block.iter().enumerate() {
+            let counts = match v.verdict[k] {
+                1 => true,
+                2 => classify_member(scene, sonar, pose, i).is_some(),
+                _ => false,
+            };
+            if counts {
+                out.push((pos + k) as u32);
+            }
+        }
+        pos += block.len();
+    }
+    (out, too_close)
+}
+
+/// The positions in `cands` of the pose's counting leaves, ascending: the leaves of
+/// [`members_of`], with its error, for a pass that finds its leaves by candidate position.
+pub fn counting_positions(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    pose_index: usize,
+    cands: &Candidates,
+) -> Result<Vec<u32>> {
+    let n = cands.len();
+    let parts: Vec<Positions> = (0..n.div_ceil(CLASSIFY_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let span = c * CLASSIFY_CHUNK..n.min((c + 1) * CLASSIFY_CHUNK);
+            counting_chunk(scene, sonar, pose, cands, span)
+        })
+        .collect();
+    if sonar.params.too_close == TooClose::Error {
+        if let Some((leaf, range)) = parts.iter().filter_map(|p| p.1).min_by_key(|&(l, _)| l) {
+            return Err(Error::TooClose {
+                pose: pose_index,
+                leaf,
+                range,
+                min_range: sonar.params.min_range,
+            });
+        }
+    }
+    Ok(parts.into_iter().flat_map(|p| p.0).collect())
 }
 
 /// The range (m) of stored leaf `i` from the pose, exactly as [`classify`] computes it.

@@ -110,6 +110,51 @@ fn the_farthest_member_range_is_the_largest_range_of_the_members() {
     assert!(counted > 40 && errors > 5, "{counted} {errors}");
 }
 
+/// The leaves at `counting_positions` are exactly the members (same leaves, same too-close
+/// error), for every sonar of `sonars()`, poses in and out of the cloud, both too-close modes.
+#[test]
+fn counting_positions_pick_exactly_the_members() {
+    let poses = [
+        Pose::new([0.0; 3], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap(),
+        Pose::new([3.0, -2.0, 1.0], [-0.3, 1.0, 0.2], [0.0, 0.0, 1.0]).unwrap(),
+    ];
+    let (mut counted, mut errors) = (0, 0);
+    for too_close in [false, true] {
+        let scene = leaves_around(20_000, 23, too_close);
+        for mut sonar in sonars() {
+            for mode in [TooClose::Skip, TooClose::Error] {
+                sonar.params.too_close = mode;
+                for (i, pose) in poses.iter().enumerate() {
+                    let cands = candidates(&scene, &sonar, pose, Search::Bvh);
+                    let want = members_of(&scene, &sonar, pose, i, cands.to_vec());
+                    let got = counting_positions(&scene, &sonar, pose, i, &cands);
+                    match (want, got) {
+                        (Ok(w), Ok(g)) => {
+                            assert!(g.windows(2).all(|p| p[0] < p[1]), "ascending");
+                            let mut leaves: Vec<u32> =
+                                g.iter().map(|&p| cands.get(p as usize)).collect();
+                            leaves.sort_unstable();
+                            let ids: Vec<u32> = w.iter().map(|m| m.index).collect();
+                            assert_eq!(leaves, ids, "pose {i}");
+                            counted += usize::from(!ids.is_empty());
+                        }
+                        (Err(w), Err(g)) => {
+                            assert_eq!(w.to_string(), g.to_string());
+                            errors += 1;
+                        }
+                        (w, g) => panic!(
+                            "pose {i}: {:?} against {:?}",
+                            w.map(|m| m.len()),
+                            g.map(|p| p.len())
+                        ),
+                    }
+                }
+            }
+        }
+    }
+    assert!(counted > 10 && errors > 2, "{counted} {errors}");
+}
+
 /// The walk's parallel top levels change nothing: the candidates (runs and all) equal
 /// those of one sequential walk, in pools of one and three threads, for every sonar of
 /// `sonars()` and poses inside, beside and outside the cloud.

@@ -8,6 +8,7 @@
 //! same monotone function of the coordinates, and a ball's slopes are widened past their
 //! rounding. Every candidate then goes through the exact test.
 use crate::math::vec3::{dot, V3};
+use rayon::prelude::*;
 
 /// A ball this close to the sonar (its distance at most this many radii) can reach any face
 /// from a plane it straddles; its occluder is tested against every target.
@@ -71,7 +72,7 @@ impl Buffer {
     /// wide (gnomonic units), at most about two cells per target.
     pub(super) fn new(w: &[V3], h_hint: f64) -> Buffer {
         let n = w.len();
-        let at: Vec<(usize, f64, f64)> = w.iter().map(|&w| face_of(w)).collect();
+        let at: Vec<(usize, f64, f64)> = w.par_iter().map(|&w| face_of(w)).collect();
         let mut bbox = [(
             f64::INFINITY,
             f64::NEG_INFINITY,
@@ -117,7 +118,7 @@ impl Buffer {
             order: Vec::new(),
         };
         // counting sort of the targets by cell
-        let cells: Vec<u32> = at.iter().map(|&a| buf.cell_at(a) as u32).collect();
+        let cells: Vec<u32> = at.par_iter().map(|&a| buf.cell_at(a) as u32).collect();
         let mut start = vec![0u32; n_cells + 1];
         for &c in &cells {
             start[c as usize + 1] += 1;
@@ -151,7 +152,7 @@ impl Buffer {
 
     /// The cell of the direction `w` (`n_cells` for a face that holds no target), to order
     /// occluders by the cells they reach.
-    #[inline]
+    #[inline(always)]
     pub(super) fn cell_of(&self, w: V3) -> usize {
         self.cell_at(face_of(w))
     }
@@ -171,7 +172,8 @@ impl Buffer {
     /// function bins targets and balls, so that it is monotone across both.
     #[inline(always)]
     fn coord(&self, x: f64, x0: f64) -> usize {
-        let c = ((x - x0) / self.h).floor();
+        // (the cast truncates, which is the floor where c > 0; NaN and c <= 0 give 0)
+        let c = (x - x0) / self.h;
         if c > 0.0 {
             c as usize
         } else {
@@ -183,7 +185,7 @@ impl Buffer {
     /// hold every target whose ray the ball of centre `v` (relative to the sonar) and radius
     /// `rho` can reach; false (nothing visited) when the ball is too near the sonar to bin, and
     /// every target must be tested.
-    #[inline]
+    #[inline(always)]
     pub(super) fn ball_cells(&self, v: V3, rho: f64, mut visit: impl FnMut(usize, usize)) -> bool {
         let dist = dot(v, v).sqrt();
         if !(dist > NEAR_BALLS * rho) {

@@ -20,7 +20,7 @@ use crossing::Cylinder;
 use occluders::{occluding_leaves, occluding_segments, Cone};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use sweep::{leaf_chunk, Rays};
+use sweep::{leaf_chunk, Rays, LANES};
 
 /// A scatterer whose ray is cast: its point (a leaf's centre, a branch piece's reference
 /// point) and what it is, so that it is never its own occluder.
@@ -64,13 +64,13 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
         return Vec::new();
     }
     let w: Vec<V3> = targets
-        .iter()
+        .par_iter()
         .map(|t| {
             let p = t.point();
             [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
         })
         .collect();
-    let r: Vec<f64> = w.iter().map(|w| dot(*w, *w).sqrt()).collect();
+    let r: Vec<f64> = w.par_iter().map(|w| dot(*w, *w).sqrt()).collect();
     let cone = Cone::around(&w, &r);
     let (leaves, segments) = rayon::join(
         || occluding_leaves(scene, origin, &cone),
@@ -187,30 +187,40 @@ fn by_cell(scene: &Scene, origin: V3, buf: &Buffer, leaves: &[u32]) -> Vec<u32> 
     out
 }
 
-/// The targets' rays in the buffer's order.
+/// The targets' rays in the buffer's order (gathered in parallel), then [`LANES`] inert
+/// entries (no length, no ray) that the disk test's last lanes may read.
 fn rays_in_order(targets: &[Target], buf: &Buffer, w: &[V3], r: &[f64]) -> Rays {
     let n = targets.len();
     let mut rays = Rays {
-        x: Vec::with_capacity(n),
-        y: Vec::with_capacity(n),
-        z: Vec::with_capacity(n),
-        range: Vec::with_capacity(n),
-        leaf: Vec::with_capacity(n),
-        segment: Vec::with_capacity(n),
+        x: vec![0.0; n + LANES],
+        y: vec![0.0; n + LANES],
+        z: vec![0.0; n + LANES],
+        range: vec![f64::NEG_INFINITY; n + LANES],
+        leaf: vec![u32::MAX; n + LANES],
+        segment: vec![u32::MAX; n + LANES],
     };
-    for &i in &buf.order {
-        let i = i as usize;
-        let (leaf, segment) = match targets[i] {
-            Target::Leaf { leaf, .. } => (leaf, u32::MAX),
-            Target::Piece { segment, .. } => (u32::MAX, segment),
-        };
-        rays.x.push(w[i][0]);
-        rays.y.push(w[i][1]);
-        rays.z.push(w[i][2]);
-        rays.range.push(r[i]);
-        rays.leaf.push(leaf);
-        rays.segment.push(segment);
-    }
+    const GATHER_CHUNK: usize = 4096;
+    (
+        rays.x[..n].par_chunks_mut(GATHER_CHUNK),
+        rays.y[..n].par_chunks_mut(GATHER_CHUNK),
+        rays.z[..n].par_chunks_mut(GATHER_CHUNK),
+        rays.range[..n].par_chunks_mut(GATHER_CHUNK),
+        rays.leaf[..n].par_chunks_mut(GATHER_CHUNK),
+        rays.segment[..n].par_chunks_mut(GATHER_CHUNK),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(c, (x, y, z, range, leaf, segment))| {
+            let order = &buf.order[c * GATHER_CHUNK..];
+            for k in 0..x.len() {
+                let i = order[k] as usize;
+                (x[k], y[k], z[k], range[k]) = (w[i][0], w[i][1], w[i][2], r[i]);
+                (leaf[k], segment[k]) = match targets[i] {
+                    Target::Leaf { leaf, .. } => (leaf, u32::MAX),
+                    Target::Piece { segment, .. } => (u32::MAX, segment),
+                };
+            }
+        });
     rays
 }
 

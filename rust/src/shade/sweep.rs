@@ -31,8 +31,9 @@ impl Rays {
     }
 }
 
-/// Lanes tested before their hits are counted.
-const LANES: usize = 32;
+/// Lanes of one step of the disk test. [`Rays`] holds this many inert entries past its last
+/// ray, so that every step reads whole lanes and vectorises, short rows included.
+pub(super) const LANES: usize = 8;
 
 /// Count, for every target, the disks of the leaves `chunk` (stored indices) that its ray
 /// crosses, into `crossings` (by position).
@@ -63,7 +64,8 @@ pub(super) fn leaf_chunk(
 }
 
 /// The exact disk test against the rays at positions `lo..hi` longer than `near`, [`LANES`]
-/// at a time: the lanes' verdicts first (vectorised), then a count for each hit.
+/// at a time: the lanes' verdicts first (vectorised, all in f64), then, for each hit of a
+/// lane before `hi`, a count unless the ray is the disk's own leaf's.
 #[inline(always)]
 fn test_disk(
     disk: &Disk,
@@ -77,41 +79,38 @@ fn test_disk(
     let (n0, n1, n2) = (disk.n[0], disk.n[1], disk.n[2]);
     let (v0, v1, v2) = (disk.v[0], disk.v[1], disk.v[2]);
     let (nv, a2) = (disk.nv, disk.a2);
+    let lanes = |a: &[f64], at: usize| -> [f64; LANES] {
+        a[at..at + LANES].try_into().expect("padded rays")
+    };
     let mut at = lo;
     while at < hi {
-        let end = hi.min(at + LANES);
-        let len = end - at;
-        let (x, y, z, range, leaf) = (
-            &rays.x[at..end],
-            &rays.y[at..end],
-            &rays.z[at..end],
-            &rays.range[at..end],
-            &rays.leaf[at..end],
+        let (x, y, z, range) = (
+            lanes(&rays.x, at),
+            lanes(&rays.y, at),
+            lanes(&rays.z, at),
+            lanes(&rays.range, at),
         );
-        let mut hit = [0u8; LANES];
-        for (((((h, &wx), &wy), &wz), &r), &l) in hit[..len]
-            .iter_mut()
-            .zip(x)
-            .zip(y)
-            .zip(z)
-            .zip(range)
-            .zip(leaf)
-        {
+        let mut bits = 0u32;
+        for k in 0..LANES {
+            let (wx, wy, wz) = (x[k], y[k], z[k]);
             let d = n0 * wx + n1 * wy + n2 * wz;
             let t = nv / d;
             let (q0, q1, q2) = (t * wx - v0, t * wy - v1, t * wz - v2);
             let qq = q0 * q0 + q1 * q1 + q2 * q2;
-            let yes = (r > near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2) & (l != own);
-            *h = u8::from(yes);
+            let yes = (range[k] > near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
+            bits |= u32::from(yes) << k;
         }
-        for (q, word) in hit.chunks_exact(8).enumerate() {
-            let mut bits = u64::from_le_bytes(word.try_into().expect("8 lanes"));
-            while bits != 0 {
-                let k = 8 * q + (bits.trailing_zeros() / 8) as usize;
-                crossings[at + k].fetch_add(1, Ordering::Relaxed);
-                bits &= bits - 1;
+        let live = hi - at;
+        if live < LANES {
+            bits &= (1u32 << live) - 1;
+        }
+        while bits != 0 {
+            let pos = at + bits.trailing_zeros() as usize;
+            if rays.leaf[pos] != own {
+                crossings[pos].fetch_add(1, Ordering::Relaxed);
             }
+            bits &= bits - 1;
         }
-        at = end;
+        at += LANES;
     }
 }

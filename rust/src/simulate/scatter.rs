@@ -6,12 +6,13 @@
 //! added. With shading, the members' terms are scaled by their factors and summed from the
 //! list; where no factor differs from 1 the leaves go the paper model's way too, so that a
 //! transmission of 1 with no branch in the way gives the unshaded echo bit for bit.
-use super::{cost_exact, cost_fast, leaf_pose, Method};
+use super::{cost_exact, cost_fast, fused_plan, leaf_pose, Method};
 use crate::echo::{branch_term, leaf_term, sum_branch_terms, sum_terms, BranchTerm, LeafTerm};
 use crate::error::{invalid, Result};
+use crate::fast::pulse::fast_pulse;
 use crate::fast::{fast_branch_spectrum, fast_sum_terms, FastPlan, FastSonar, MIN_TOL};
 use crate::lobe::candidates::Candidates;
-use crate::lobe::{branch_members, members_of, PieceMember};
+use crate::lobe::{branch_members, counting_positions, members_of, PieceMember};
 use crate::physics::pose::Pose;
 use crate::physics::shading::shading_factor;
 use crate::scene::Scene;
@@ -211,13 +212,15 @@ pub fn pose_echo(
     pose_index: usize,
     cands: &Candidates,
 ) -> Result<PoseEcho> {
-    let m = sonar.n_bins();
     let pieces = branch_members(scene, sonar, pose, pose_index)?;
     let mut wood: Vec<BranchTerm> = pieces.iter().map(|p| branch_term(sonar, p)).collect();
     let (re, im, n_leaves, n_shaded) = if sonar.params.shading.is_none() {
         let (re, im, n) = leaf_pose(scene, sonar, plan, method, pose, pose_index, cands)?;
         (re, im, n, 0)
     } else {
+        if let Some(pl) = fused_plan(plan, method, cands) {
+            return shaded_fused(scene, sonar, pl, pose, pose_index, cands, pieces, wood);
+        }
         let mem = members_of(scene, sonar, pose, pose_index, cands.to_vec())?;
         let ids: Vec<u32> = mem.iter().map(|mb| mb.index).collect();
         let factors = shading_factors(scene, sonar, pose, &ids, &pieces);
@@ -246,7 +249,7 @@ pub fn pose_echo(
             (re, im, mem.len() as u64, n_shaded)
         }
     };
-    let mut echo = PoseEcho {
+    let echo = PoseEcho {
         re,
         im,
         wood_re: Vec::new(),
@@ -255,11 +258,77 @@ pub fn pose_echo(
         n_pieces: pieces.len() as u64,
         n_shaded,
     };
+    Ok(with_wood(scene, sonar, plan, echo, &wood))
+}
+
+/// The leaves' echo shaded by the fused fast path: the counting leaves' positions among the
+/// candidates, their rays cast with the pieces', then the fused pulse with each leaf's factor;
+/// where no leaf's factor differs from 1, the unshaded fused pulse (the same bits).
+#[allow(clippy::too_many_arguments)]
+fn shaded_fused(
+    scene: &Scene,
+    sonar: &FastSonar,
+    plan: &FastPlan,
+    pose: &Pose,
+    pose_index: usize,
+    cands: &Candidates,
+    pieces: Vec<PieceMember>,
+    mut wood: Vec<BranchTerm>,
+) -> Result<PoseEcho> {
+    let positions = counting_positions(scene, sonar, pose, pose_index, cands)?;
+    let ids: Vec<u32> = positions
+        .par_iter()
+        .map(|&p| cands.get(p as usize))
+        .collect();
+    let factors = shading_factors(scene, sonar, pose, &ids, &pieces);
+    let (leaf_f, wood_f) = factors.split_at(ids.len());
+    for (t, &f) in wood.iter_mut().zip(wood_f) {
+        t.amp *= f;
+    }
+    wood.retain(|t| t.amp != 0.0);
+    let n_shaded = leaf_f.iter().filter(|&&f| f != 1.0).count() as u64;
+    let by_position = (n_shaded > 0).then(|| {
+        let mut f = vec![1.0; cands.len()];
+        for (&p, &x) in positions.iter().zip(leaf_f) {
+            f[p as usize] = x;
+        }
+        f
+    });
+    let (re, im, n_leaves) = fast_pulse(
+        scene,
+        sonar,
+        plan,
+        pose,
+        pose_index,
+        cands,
+        by_position.as_deref(),
+    )?;
+    let echo = PoseEcho {
+        re,
+        im,
+        wood_re: Vec::new(),
+        wood_im: Vec::new(),
+        n_leaves,
+        n_pieces: pieces.len() as u64,
+        n_shaded,
+    };
+    Ok(with_wood(scene, sonar, Some(plan), echo, &wood))
+}
+
+/// `echo` with the wood's spectrum `wood` added and kept apart (nothing without branches).
+fn with_wood(
+    scene: &Scene,
+    sonar: &FastSonar,
+    plan: Option<&FastPlan>,
+    mut echo: PoseEcho,
+    wood: &[BranchTerm],
+) -> PoseEcho {
+    let m = sonar.n_bins();
     if !scene.branches.is_empty() {
         let (wr, wi) = if wood.is_empty() {
             (vec![0.0; m], vec![0.0; m])
         } else {
-            wood_spectrum(sonar, plan, &wood)
+            wood_spectrum(sonar, plan, wood)
         };
         for j in 0..m {
             echo.re[j] += wr[j];
@@ -267,5 +336,5 @@ pub fn pose_echo(
         }
         (echo.wood_re, echo.wood_im) = (wr, wi);
     }
-    Ok(echo)
+    echo
 }
