@@ -339,12 +339,17 @@ def _cylinder_po(k, a, length, cos_g, sin_g):
     return 0.5 * length * np.sqrt(k * a * cos_g / math.pi) * _sinc(k * length * sin_g)
 
 
-def _max_piece_length(sonar: Sonar, r: float, k_max: float) -> float:
+def _narrowest_sigma(sonar: Sonar) -> float:
+    """The narrowest Gaussian width (rad) of the emitter's and every receiving beam."""
+    tx = cast(Beam, sonar.beam)
+    beams = [tx, tx if sonar.receiver is None else sonar.receiver]
+    beams += [tx if rx.beam is None else rx.beam for rx in sonar.receivers or ()]
+    return min(min(b._core_tuple()[1:3]) for b in beams)
+
+
+def _max_piece_length(sonar: Sonar, sigma: float, r: float, k_max: float) -> float:
     """The longest piece at nearest distance r: scale min(sqrt(4 r PIECE_PHASE / k_max),
-    PIECE_BEAM_SHARE sigma r), sigma the narrowest Gaussian width of the two beams."""
-    tx = cast(Beam, sonar.beam)._core_tuple()
-    rx = tx if sonar.receiver is None else sonar.receiver._core_tuple()
-    sigma = min(tx[1], tx[2], rx[1], rx[2])
+    PIECE_BEAM_SHARE sigma r), sigma the narrowest Gaussian width of the beams."""
     far = math.sqrt(4.0 * r * PIECE_PHASE / k_max)
     return sonar.branch_piece_scale * min(far, PIECE_BEAM_SHARE * sigma * r)
 
@@ -358,34 +363,57 @@ def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     return math.sqrt(float(_dot(q, q)))
 
 
+def _cut(
+    branches: Branches,
+    j: int,
+    p: np.ndarray,
+    near: float,
+    sonar: Sonar,
+    sigma: float,
+    k_max: float,
+    too_close: list[tuple[int, float]],
+):
+    """Segment j cut into equal pieces, as lit from the emitter at p (docs/model.md §9): the
+    number n from the longest piece at ``near``, the segment's nearest distance from the
+    emitter (and the receivers); then, for each piece not seen end-on from p, its centre c,
+    the unit axis u, the length, and c - p's part sv along the axis and w across it with
+    |w| = rho. A piece with p inside it is recorded in ``too_close``."""
+    a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
+    near_tx = _segment_distance(p, a, b) - rad
+    d = b - a
+    lj = math.sqrt(float(_dot(d, d)))
+    u = d / lj
+    longest = _max_piece_length(sonar, sigma, max(near, sonar.min_range_m), k_max)
+    n = max(1, math.ceil(lj / longest))
+    if n > MAX_PIECES:
+        raise ValueError(f"branch {j} would need {n} pieces at {near:.3e} m from the sonar")
+    pl = lj / n
+    for q in range(n):
+        c = a + ((2 * q + 1) / (2 * n)) * d
+        v = c - p
+        sv = float(_dot(v, u))
+        w = v - sv * u
+        rho = math.sqrt(float(_dot(w, w)))
+        if not rho > rad:
+            if abs(sv) <= 0.5 * pl:  # the pose inside the piece
+                too_close.append((j, min(near_tx, 0.0)))
+            continue  # (end-on from the emitter: only the flat end is lit, which is left out)
+        yield c, u, pl, sv, w, rho
+
+
 def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float):
     """The counting branch pieces of pose i: segment, length, radius, cos and sin of the tilt,
     and the view of their reference points (mask applied): range, two-way gain."""
     p = poses.positions[i]
+    sigma = _narrowest_sigma(sonar)
     seg, ref, length, radius, cg, sg = [], [], [], [], [], []
     too_close: list[tuple[int, float]] = []
     for j in range(len(branches)):
-        a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
-        near = _segment_distance(p, a, b) - rad
+        rad = float(branches.radii[j])
+        near = _segment_distance(p, branches.starts[j], branches.ends[j]) - rad
         if near > sonar.max_reach_m:
             continue
-        d = b - a
-        lj = math.sqrt(float(_dot(d, d)))
-        u = d / lj
-        n = max(1, math.ceil(lj / _max_piece_length(sonar, max(near, sonar.min_range_m), k_max)))
-        if n > MAX_PIECES:
-            raise ValueError(f"branch {j} would need {n} pieces at {near:.3e} m from the sonar")
-        pl = lj / n
-        for q in range(n):
-            c = a + ((2 * q + 1) / (2 * n)) * d
-            v = c - p
-            sv = float(_dot(v, u))
-            w = v - sv * u
-            rho = math.sqrt(float(_dot(w, w)))
-            if not rho > rad:
-                if abs(sv) <= 0.5 * pl:  # the pose inside the piece
-                    too_close.append((j, min(near, 0.0)))
-                continue  # (end-on: only the flat end is lit, which the model leaves out)
+        for c, _, pl, sv, w, rho in _cut(branches, j, p, near, sonar, sigma, k_max, too_close):
             seg.append(j)
             ref.append(c - (rad / rho) * w)
             length.append(pl)
@@ -491,35 +519,15 @@ def _pieces_heard(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max:
     the tilt, cos(beta/2), reference point (n, 3))."""
     p = poses.positions[i]
     rxs = cast(tuple, sonar.receivers)
-    tx_beam = cast(Beam, sonar.beam)
-    beams = [tx_beam] + [tx_beam if rx.beam is None else rx.beam for rx in rxs]
-    sigma = min(min(b._core_tuple()[1:3]) for b in beams)
+    sigma = _narrowest_sigma(sonar)
     at = [_receiver_position(poses, i, rx.offset_m) for rx in rxs]
     alone = [sonar.replace(receivers=(rx,)) for rx in rxs]  # (each receiver's lobe test)
     rows: list[list[tuple]] = [[] for _ in rxs]
     too_close: list[tuple[int, float]] = []
     for j in range(len(branches)):
         a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
-        near_tx = _segment_distance(p, a, b) - rad
-        near = min([near_tx] + [_segment_distance(q, a, b) - rad for q in at])
-        d = b - a
-        lj = math.sqrt(float(_dot(d, d)))
-        u = d / lj
-        far = math.sqrt(4.0 * max(near, sonar.min_range_m) * PIECE_PHASE / k_max)
-        beam = PIECE_BEAM_SHARE * sigma * max(near, sonar.min_range_m)
-        n = max(1, math.ceil(lj / (sonar.branch_piece_scale * min(far, beam))))
-        if n > MAX_PIECES:
-            raise ValueError(f"branch {j} would need {n} pieces at {near:.3e} m from the sonar")
-        pl = lj / n
-        for q in range(n):
-            c = a + ((2 * q + 1) / (2 * n)) * d
-            v = c - p
-            sv = float(_dot(v, u))
-            w = v - sv * u
-            if not math.sqrt(float(_dot(w, w))) > rad:
-                if abs(sv) <= 0.5 * pl:  # the pose inside the piece
-                    too_close.append((j, min(near_tx, 0.0)))
-                continue  # (end-on from the emitter: silent)
+        near = min(_segment_distance(q, a, b) - rad for q in [p, *at])
+        for c, u, pl, _, _, _ in _cut(branches, j, p, near, sonar, sigma, k_max, too_close):
             for k, q_rx in enumerate(at):
                 sight = _bistatic_sight(p, q_rx, c, u, rad, pl)
                 if sight == "inside":
