@@ -33,18 +33,21 @@ def with_receiver_axis(echoes: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def wood_and_shading(echoes: Any) -> dict[str, np.ndarray]:
-    """The echoes' wood and shading arrays, with a receiver axis, only where the scene has
-    them: ``wood_spectrum`` (p, R, M) and ``n_pieces`` (p, R) with branches, ``n_shaded``
-    (p, R) when the sonar shades."""
+    """The echoes' wood and shading arrays as they hold them, only where the scene has them:
+    ``wood_spectrum`` and ``n_pieces`` with branches, ``n_shaded`` when the sonar shades."""
     out: dict[str, np.ndarray] = {}
     if echoes.wood_spectrum is not None:
         out["wood_spectrum"] = echoes.wood_spectrum
         out["n_pieces"] = echoes.n_pieces
     if echoes.sonar.shading is not None:
         out["n_shaded"] = echoes.n_shaded
-    if echoes.n_receivers:
-        return out
-    return {name: x[:, None] for name, x in out.items()}
+    return out
+
+
+def _wood_and_shading_per_receiver(echoes: Any) -> dict[str, np.ndarray]:
+    """:func:`wood_and_shading` with a receiver axis after the pose axis."""
+    out = wood_and_shading(echoes)
+    return out if echoes.n_receivers else {name: x[:, None] for name, x in out.items()}
 
 
 #: Dimensions and attributes of the wood and shading variables of the xarray Dataset.
@@ -163,7 +166,7 @@ def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None
         },
         attrs=_scalar_attrs(echoes),
     )
-    for name, x in wood_and_shading(echoes).items():
+    for name, x in _wood_and_shading_per_receiver(echoes).items():
         dims, attrs = _WOOD_AND_SHADING_VARS[name]
         ds[name] = (dims, x, attrs)
     if call is not None:
@@ -267,7 +270,7 @@ def to_mat(
     # (counts as doubles, as n_leaves: MATLAB's default class)
     extra: dict[str, Any] = {
         name: x if name == "wood_spectrum" else x.astype(np.float64)
-        for name, x in wood_and_shading(echoes).items()
+        for name, x in _wood_and_shading_per_receiver(echoes).items()
     }
     if call is not None:
         extra |= {"received": _received(echoes, call, received), "call": call.samples}

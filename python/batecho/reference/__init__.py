@@ -1,0 +1,35 @@
+"""The NumPy reference: docs/model.md written out for clarity, not speed.
+
+Plain NumPy and SciPy, a brute-force lobe test (no BVH, no Rust). ``simulate`` and
+``lobe_members`` have the same signatures and results as ``batecho.simulate`` and
+``batecho.lobe_members``, receivers at their own places included; the property tests hold the
+Rust core to this package. One module a part of the model, in the order of the data:
+
+- ``lobe``: the beampattern, angles and lobe rule (§1-§3)
+- ``leaves``: the frequency grid, leaf scattering and the leaves' spectrum (§4-§5)
+- ``receivers``: receivers at their own places (§5a)
+- ``branches``: branch pieces and their spectrum (§9)
+- ``shading``: leaf crossings, blocking branches, ``leaf_sights`` (§10)
+- ``simulate``: ``simulate`` and ``lobe_members``
+- ``clearance``: distances to leaves and branches (§6)
+
+Where the Rust core's result hangs on the last bit (the lobe test's threshold, clearance),
+the reference computes in the core's order of operations with the same C library functions.
+"""
+
+from __future__ import annotations
+
+from .clearance import clearance, point_cylinder_distance, point_disk_distance
+from .leaves import _leaf_paper as _leaf_paper
+from .lobe import _view as _view
+from .shading import leaf_sights
+from .simulate import lobe_members, simulate
+
+__all__ = [
+    "clearance",
+    "leaf_sights",
+    "lobe_members",
+    "point_cylinder_distance",
+    "point_disk_distance",
+    "simulate",
+]
