@@ -10,8 +10,8 @@ Rust core to this package. One module a part of the model, in the order of the d
 - ``receivers``: receivers at their own places (§5a)
 - ``branches``: branch pieces and their spectrum (§9)
 - ``shading``: leaf crossings, blocking branches, ``leaf_sights`` (§10)
-- ``simulate``: ``simulate`` and ``lobe_members``
-- ``clearance``: distances to leaves and branches (§6)
+- ``echoes``: ``simulate`` and ``lobe_members``
+- ``distances``: distances to leaves and branches, ``clearance`` (§6)
 
 Where the Rust core's result hangs on the last bit (the lobe test's threshold, clearance),
 the reference computes in the core's order of operations with the same C library functions.
@@ -19,11 +19,11 @@ the reference computes in the core's order of operations with the same C library
 
 from __future__ import annotations
 
-from .clearance import clearance, point_cylinder_distance, point_disk_distance
+from .distances import clearance, point_cylinder_distance, point_disk_distance
+from .echoes import lobe_members, simulate
 from .leaves import _leaf_paper as _leaf_paper
 from .lobe import _view as _view
 from .shading import leaf_sights
-from .simulate import lobe_members, simulate
 
 __all__ = [
     "clearance",
