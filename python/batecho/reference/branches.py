@@ -69,19 +69,24 @@ def _cut(
     branches: Branches,
     j: int,
     p: np.ndarray,
-    near: float,
+    ears: list[np.ndarray],
     sonar: Sonar,
     sigma: float,
     k_max: float,
     too_close: list[tuple[int, float]],
+    reach: float = math.inf,
 ):
     """Segment j cut into equal pieces, as lit from the emitter at p (docs/model.md §9): the
-    number n from the longest piece at ``near``, the segment's nearest distance from the
-    emitter (and the receivers); then, for each piece not seen end-on from p, its centre c,
-    the unit axis u, the length, and c - p's part sv along the axis and w across it with
-    |w| = rho. A piece with p inside it is recorded in ``too_close``."""
+    number from the longest piece at the segment's nearest distance from the emitter or any
+    receiver at ``ears``; then, for each piece not seen end-on from p, its centre c, the unit
+    axis u, the length, and c - p's part sv along the axis and w across it with |w| = rho.
+    Nothing when the segment lies farther than ``reach`` from all of them; a piece with p
+    inside it is recorded in ``too_close``."""
     a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
     near_tx = _segment_distance(p, a, b) - rad
+    near = min([near_tx] + [_segment_distance(q, a, b) - rad for q in ears])
+    if near > reach:
+        return
     d = b - a
     lj = math.sqrt(float(dots(d, d)))
     u = d / lj
@@ -112,10 +117,8 @@ def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float
     too_close: list[tuple[int, float]] = []
     for j in range(len(branches)):
         rad = float(branches.radii[j])
-        near = _segment_distance(p, branches.starts[j], branches.ends[j]) - rad
-        if near > sonar.max_reach_m:
-            continue
-        for c, _, pl, sv, w, rho in _cut(branches, j, p, near, sonar, sigma, k_max, too_close):
+        lit = _cut(branches, j, p, [], sonar, sigma, k_max, too_close, sonar.max_reach_m)
+        for c, _, pl, sv, w, rho in lit:
             seg.append(j)
             ref.append(c - (rad / rho) * w)
             length.append(pl)
@@ -227,9 +230,8 @@ def _pieces_heard(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max:
     rows: list[list[tuple]] = [[] for _ in rxs]
     too_close: list[tuple[int, float]] = []
     for j in range(len(branches)):
-        a, b, rad = branches.starts[j], branches.ends[j], float(branches.radii[j])
-        near = min(_segment_distance(q, a, b) - rad for q in [p, *at])
-        for c, u, pl, _, _, _ in _cut(branches, j, p, near, sonar, sigma, k_max, too_close):
+        rad = float(branches.radii[j])
+        for c, u, pl, _, _, _ in _cut(branches, j, p, at, sonar, sigma, k_max, too_close):
             for k, q_rx in enumerate(at):
                 sight = _bistatic_sight(p, q_rx, c, u, rad, pl)
                 if sight == "inside":
