@@ -12,17 +12,19 @@ Rust core to this package. One module a part of the model, in the order of the d
 - ``shading``: leaf crossings, blocking branches, ``leaf_sights`` (§10)
 - ``echoes``: ``simulate`` and ``lobe_members``
 - ``distances``: distances to leaves and branches, ``clearance`` (§6)
+- ``parts``: a scene's leaves and branches
 
 Where the Rust core's result hangs on the last bit (the lobe test's threshold, clearance),
-the reference computes in the core's order of operations with the same C library functions.
+the reference computes in the core's order of operations, and the lobe test with the C
+library's ``atan2`` and ``exp`` as the core does (``lobe``).
 """
 
 from __future__ import annotations
 
 from .distances import clearance, point_cylinder_distance, point_disk_distance
 from .echoes import lobe_members, simulate
-from .leaves import _leaf_paper as _leaf_paper
-from .lobe import _view as _view
+from .leaves import _leaf_paper as _leaf_paper  # (the leaf fit, for tests of it alone)
+from .lobe import _view as _view  # (the view of points, for tests of the lobe alone)
 from .shading import leaf_sights
 
 __all__ = [
