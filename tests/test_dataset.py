@@ -541,3 +541,21 @@ def test_wood_and_shading_labels_agree_with_simulate_and_the_geometry(tmp_path):
     assert (ds["n_shaded"].values <= ds["n_leaves"].values).all()
     assert ds["n_shaded"].values.sum() > 0
     assert ds["nearest_wood_m"].attrs["units"] == "m"
+
+
+def test_a_wooded_store_of_spectra_holds_the_woods_share_of_each(tmp_path):
+    spec = wood_spec(
+        n_samples=1, **{"output.chunk_size": 1, "output.spectrum": True, "output.dtype": "float64"}
+    )
+    generate(spec, tmp_path / "wood.zarr", workers=1, progress=False)
+    verify(tmp_path / "wood.zarr")
+    ds = load(tmp_path / "wood.zarr")
+    echoes = draw_sample(spec, 0).echoes
+    assert ds["wood_spectrum"].dims == ("sample", "pulse", "freq")
+    assert np.any(echoes.wood_spectrum != 0.0)
+    np.testing.assert_array_equal(ds["wood_spectrum"].values[0], echoes.wood_spectrum)
+
+
+def test_a_store_of_spectra_without_branches_has_no_wood_spectrum():
+    names = [v.name for v in batecho.dataset.store.schema(tiny_spec(**{"output.spectrum": True}))]
+    assert "spectrum" in names and "wood_spectrum" not in names

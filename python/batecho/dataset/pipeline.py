@@ -242,8 +242,8 @@ def sample_arrays(spec: DatasetSpec, s: Sample) -> dict[str, np.ndarray]:
         elif v.name == "received":
             assert s.received is not None
             a = s.received[..., t0:t1]
-        elif v.name == "spectrum":
-            a = s.echoes.spectrum
+        elif v.name in ("spectrum", "wood_spectrum"):
+            a = getattr(s.echoes, v.name)
         elif v.name in ("position", "forward", "up"):
             a = getattr(s.poses, "positions" if v.name == "position" else v.name)
         else:

@@ -725,7 +725,9 @@ class DatasetSpec(_Section):
         p = self.pulses_per_sample
         t0, t1 = self.sonar.time_slice()
         width = 4 if self.output.dtype == "float32" else 8
-        values = (t1 - t0) * self.output.impulse + 2 * self.sonar.n_bins * self.output.spectrum
+        # (with branches, the wood's share of the spectrum is stored too)
+        spectra = (2 if self.has_wood else 1) * int(self.output.spectrum)
+        values = (t1 - t0) * self.output.impulse + 2 * self.sonar.n_bins * spectra
         per_sample = p * width * values
         if per_sample * min(self.output.chunk_size, self.n_samples) > MAX_CHUNK_BYTES:
             raise SpecError(

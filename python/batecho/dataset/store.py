@@ -8,6 +8,7 @@ Layout (Zarr format 3, consolidated metadata; opens with ``xarray.open_zarr``)::
       time (time,) s, range (time,) m, freq (freq,) Hz      coordinates
       impulse  (sample, pulse, time)  float32|float64       when output.impulse
       spectrum (sample, pulse, freq)  complex64|complex128  when output.spectrum
+      wood_spectrum (sample, pulse, freq)  as spectrum  when output.spectrum, with branches
       received (sample, pulse, time)  float32|float64       with a [call]
       n_leaves, nearest_range_m, lobe_mean_radius_m (sample, pulse)     per-pulse labels
       receiver (receiver,)            with two ears: every per-pulse variable above gains
@@ -136,6 +137,17 @@ def schema(spec: DatasetSpec) -> list[Var]:
                 complex(nan, nan),
                 "1",
                 "windowed band spectrum Y_k at freq",
+            )
+        )
+    if spec.output.spectrum and spec.has_wood:
+        out.append(
+            Var(
+                "wood_spectrum",
+                (*sp, "freq"),
+                cplx,
+                complex(nan, nan),
+                "1",
+                "the branches' share of the spectrum at freq (docs/model.md §9)",
             )
         )
     if spec.call is not None:

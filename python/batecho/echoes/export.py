@@ -21,7 +21,7 @@ from ..sonar.record import sonar_params
 if TYPE_CHECKING:
     from ..sonar.call import Call
 
-__all__ = ["to_mat", "to_wav", "to_xarray", "with_receiver_axis", "write_wav"]
+__all__ = ["to_mat", "to_wav", "to_xarray", "with_receiver_axis", "wood_and_shading", "write_wav"]
 
 
 def with_receiver_axis(echoes: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -30,6 +30,41 @@ def with_receiver_axis(echoes: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     if echoes.n_receivers:
         return echoes.spectrum, echoes.impulse, echoes.n_leaves
     return echoes.spectrum[:, None], echoes.impulse[:, None], echoes.n_leaves[:, None]
+
+
+def wood_and_shading(echoes: Any) -> dict[str, np.ndarray]:
+    """The echoes' wood and shading arrays as they hold them, only where the scene has them:
+    ``wood_spectrum`` and ``n_pieces`` with branches, ``n_shaded`` when the sonar shades."""
+    out: dict[str, np.ndarray] = {}
+    if echoes.wood_spectrum is not None:
+        out["wood_spectrum"] = echoes.wood_spectrum
+        out["n_pieces"] = echoes.n_pieces
+    if echoes.sonar.shading is not None:
+        out["n_shaded"] = echoes.n_shaded
+    return out
+
+
+def _wood_and_shading_per_receiver(echoes: Any) -> dict[str, np.ndarray]:
+    """:func:`wood_and_shading` with a receiver axis after the pose axis."""
+    out = wood_and_shading(echoes)
+    return out if echoes.n_receivers else {name: x[:, None] for name, x in out.items()}
+
+
+#: Dimensions and attributes of the wood and shading variables of the xarray Dataset.
+_WOOD_AND_SHADING_VARS: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
+    "wood_spectrum": (
+        ("pose", "receiver", "frequency"),
+        {"units": "1", "long_name": "the branches' share of the spectrum Y_k"},
+    ),
+    "n_pieces": (
+        ("pose", "receiver"),
+        {"units": "1", "long_name": "branch pieces that counted"},
+    ),
+    "n_shaded": (
+        ("pose", "receiver"),
+        {"units": "1", "long_name": "counting leaves that shading dimmed or silenced"},
+    ),
+}
 
 
 def _receiver_table(echoes: Any) -> tuple[list[str], np.ndarray]:
@@ -75,9 +110,12 @@ def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None
     Dimensions ``pose``, ``receiver``, ``time``, ``frequency`` and ``xyz``. Variables:
     ``impulse`` (pose, receiver, time), ``spectrum`` (pose, receiver, frequency, complex),
     ``n_leaves`` (pose, receiver), the poses' ``position``, ``forward``, ``up``, ``left``
-    (pose, xyz). Coordinates: ``time`` (s), ``frequency`` (Hz), ``range`` along time (m,
-    ``v t / 2``), the receivers' names and ``receiver_offset`` (receiver, xyz; m, in the
-    sonar's frame). Attributes: the sonar's parameters (``sonar_json`` holds every one).
+    (pose, xyz); with branches in the scene ``wood_spectrum`` (pose, receiver, frequency,
+    complex: the branches' share of ``spectrum``) and ``n_pieces`` (pose, receiver); when
+    the sonar shades, ``n_shaded`` (pose, receiver). Coordinates: ``time`` (s), ``frequency``
+    (Hz), ``range`` along time (m, ``v t / 2``), the receivers' names and ``receiver_offset``
+    (receiver, xyz; m, in the sonar's frame). Attributes: the sonar's parameters
+    (``sonar_json`` holds every one).
 
     With ``call``, also ``received`` (pose, receiver, time): what the receivers record (given
     as ``received``, or :meth:`Echoes.received` without noise), and the call's ``call``
@@ -128,6 +166,9 @@ def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None
         },
         attrs=_scalar_attrs(echoes),
     )
+    for name, x in _wood_and_shading_per_receiver(echoes).items():
+        dims, attrs = _WOOD_AND_SHADING_VARS[name]
+        ds[name] = (dims, x, attrs)
     if call is not None:
         rec = _received(echoes, call, received)
         ds["received"] = (
@@ -216,7 +257,9 @@ def to_mat(
     (pose, receiver, time), ``spectrum`` (pose, receiver, frequency), ``n_leaves``, ``times``
     (s), ``freqs`` (Hz), ``positions``, ``forward``, ``up``, ``left`` (pose, 3),
     ``receiver_offsets`` (receiver, 3; m), ``receiver_names``, ``fs``, ``sound_speed``,
-    ``sonar_json`` and ``batecho_version``; with ``call``, ``received`` (pose, receiver,
+    ``sonar_json`` and ``batecho_version``; with branches in the scene ``wood_spectrum``
+    (pose, receiver, frequency) and ``n_pieces`` (pose, receiver), when the sonar shades
+    ``n_shaded`` (pose, receiver); with ``call``, ``received`` (pose, receiver,
     time: given, or :meth:`Echoes.received` without noise) and the ``call`` samples."""
     from scipy.io import savemat
 
@@ -224,9 +267,13 @@ def to_mat(
     names, offsets = _receiver_table(echoes)
     poses = echoes.poses
     p = Path(path)
-    extra: dict[str, Any] = {}
+    # (counts as doubles, as n_leaves: MATLAB's default class)
+    extra: dict[str, Any] = {
+        name: x if name == "wood_spectrum" else x.astype(np.float64)
+        for name, x in _wood_and_shading_per_receiver(echoes).items()
+    }
     if call is not None:
-        extra = {"received": _received(echoes, call, received), "call": call.samples}
+        extra |= {"received": _received(echoes, call, received), "call": call.samples}
     savemat(
         p,
         extra

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .._resources import echoes_bytes_per_pulse
+from ..echoes.export import wood_and_shading
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.clearance import ClearanceWarning, SolidClearance, low_clearance, solid_clearance
 from ..forest.scene import Scene
@@ -247,11 +248,7 @@ def run_scenefile(
         }
         if oc["impulse"]:
             arrays["impulse"] = echoes.impulse
-        if echoes.wood_spectrum is not None:
-            arrays["wood_spectrum"] = echoes.wood_spectrum
-            arrays["n_pieces"] = echoes.n_pieces
-        if st.sonar.shading is not None:
-            arrays["n_shaded"] = echoes.n_shaded
+        arrays |= wood_and_shading(echoes)
         if echoes.n_receivers:
             arrays["receiver_offsets"] = np.array([r.offset_m for r in st.sonar.receivers or ()])
         if received is not None and call is not None:
