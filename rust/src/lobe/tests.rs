@@ -322,6 +322,11 @@ fn visit_spans_visits_in_order_every_piece_a_conservative_test_keeps() {
         let kept: Vec<usize> = seen.iter().copied().filter(|&k| counts(k)).collect();
         let all: Vec<usize> = (0..n).filter(|&k| counts(k)).collect();
         assert_eq!(kept, all, "n = {n}");
-        assert!(seen.len() <= all.len() + 32, "visits {} for {}", seen.len(), all.len());
+        assert!(
+            seen.len() <= all.len() + 32,
+            "visits {} for {}",
+            seen.len(),
+            all.len()
+        );
     }
 }
