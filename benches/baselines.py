@@ -6,6 +6,7 @@ Usage::
 
     python benches/baselines.py                       # 100 forests at 0.03 and 0.06 trees/m^2
     python benches/baselines.py --episodes 20 --densities 0.02 0.05 --out baselines-out
+    python benches/baselines.py --max-minutes 30       # as many forests as finish in 30 min
 """
 
 from __future__ import annotations
@@ -43,6 +44,13 @@ def main() -> None:
     ap.add_argument("--densities", type=float, nargs="+", default=[0.03, 0.06])
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("baselines-out"))
+    ap.add_argument(
+        "--max-minutes",
+        type=float,
+        default=None,
+        help="stop after the first forest that ends past this wall time (the table and the "
+        "picture cover the forests that finished)",
+    )
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     seeds = range(args.first_seed, args.first_seed + args.episodes)
@@ -60,7 +68,10 @@ def main() -> None:
                     examples[(density, name)] = (path, outcome)
         table = _table(seeds.start, k + 1, counts)
         (args.out / "baselines.md").write_text(table + "\n")
-        print(f"{k + 1} forests per density after {time.perf_counter() - t0:.0f} s", flush=True)
+        elapsed = time.perf_counter() - t0
+        print(f"{k + 1} forests per density after {elapsed:.0f} s", flush=True)
+        if args.max_minutes is not None and elapsed > 60.0 * args.max_minutes:
+            break
     print(table)
     _picture(args, examples)
 

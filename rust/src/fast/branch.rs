@@ -9,10 +9,29 @@ use crate::fast::plan::{FastPlan, MAX_NODES};
 use crate::fast::pool::take_grid;
 use crate::fast::prepared::FastSonar;
 use crate::fast::spread::spread_at;
+use multiversion::multiversion;
 use rayon::prelude::*;
+
+/// Spread a task's pieces onto `grid`; the pieces that fail their check, to be summed exactly.
+/// (Compiled per target: the kernel weights' and the spreading's `mul_add`s are instructions,
+/// not library calls.)
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn spread_branches(
+    sonar: &FastSonar,
+    plan: &FastPlan,
+    terms: &[BranchTerm],
+    grid: &mut [f64],
+) -> Vec<BranchTerm> {
+    terms
+        .iter()
+        .filter(|t| !spread_branch(sonar, plan, t, grid))
+        .copied()
+        .collect()
+}
 
 /// Spread one piece's points; false (nothing spread) when one of them cannot be interpolated
 /// to `tol` (the caller sums the piece exactly).
+#[inline(always)]
 fn spread_branch(sonar: &FastSonar, plan: &FastPlan, t: &BranchTerm, grid: &mut [f64]) -> bool {
     let nt = &plan.nodes;
     let p = plan.p;
@@ -57,11 +76,7 @@ pub fn fast_branch_spectrum(
         .par_chunks(chunk.max(1))
         .map(|c| {
             let mut grid = take_grid(glen);
-            let exact: Vec<BranchTerm> = c
-                .iter()
-                .filter(|t| !spread_branch(sonar, plan, t, &mut grid))
-                .copied()
-                .collect();
+            let exact = spread_branches(sonar, plan, c, &mut grid);
             (grid, exact)
         })
         .collect();

@@ -34,8 +34,31 @@ pub const MAX_PIECES: usize = 1 << 20;
 /// Segments per parallel task.
 const SEGMENT_CHUNK: usize = 256;
 
-/// Pieces whose span is tested as one box before they are tested one by one.
+/// Spans of at most this many pieces are tested piece by piece (longer spans are halved).
 pub const PIECE_BLOCK: usize = 16;
+
+/// Visit the pieces `k0..k1` of a segment in order, skipping spans that `span_out` rules out
+/// (a conservative test: a span it rules out holds no piece that counts): the span is tested
+/// as one box, and if it is not ruled out it is halved down to [`PIECE_BLOCK`] pieces, whose
+/// pieces are visited one by one. A segment mostly outside the lobe costs a few tests per
+/// span it crosses, not one per block of pieces.
+pub fn visit_spans(
+    k0: usize,
+    k1: usize,
+    span_out: &impl Fn(usize, usize) -> bool,
+    piece: &mut impl FnMut(usize),
+) {
+    if k0 >= k1 || span_out(k0, k1) {
+        return;
+    }
+    if k1 - k0 <= PIECE_BLOCK {
+        (k0..k1).for_each(piece);
+        return;
+    }
+    let mid = k0 + (k1 - k0) / 2;
+    visit_spans(k0, mid, span_out, piece);
+    visit_spans(mid, k1, span_out, piece);
+}
 
 /// The box (lo, hi) round the span `[k0, k1)` of a segment from `a` along `d` cut into `n`
 /// pieces of radius `radius`: it holds every point within `radius` of the span's axis, so every
@@ -109,14 +132,7 @@ fn segment_pieces(
             || (near >= sp.min_range
                 && test_box(sonar, pose, bound.as_ref(), lo, hi) == BoxTest::Outside)
     };
-    let mut skip_to = 0;
-    for k in 0..n {
-        if k % PIECE_BLOCK == 0 && span_out(k, (k + PIECE_BLOCK).min(n)) {
-            skip_to = (k + PIECE_BLOCK).min(n);
-        }
-        if k < skip_to {
-            continue;
-        }
+    visit_spans(0, n, &span_out, &mut |k| {
         let t = (2 * k + 1) as f64 / (2 * n) as f64;
         let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
         match piece_sight(p, c, u, radius, piece_len) {
@@ -141,7 +157,7 @@ fn segment_pieces(
             PieceSight::EndOn => {}
             PieceSight::Inside => note_close(near.min(0.0)),
         }
-    }
+    });
     Ok(())
 }
 
@@ -160,13 +176,15 @@ pub fn branch_members(
     if n == 0 {
         return Ok(Vec::new());
     }
+    // (the segments a piece of which may lie within the reach; see `segment_pieces`)
+    let near = scene.branches.within(pose.position, sonar.max_reach());
     type Part = (Vec<PieceMember>, Option<(usize, f64)>);
-    let parts: Vec<Result<Part>> = (0..n.div_ceil(SEGMENT_CHUNK))
-        .into_par_iter()
+    let parts: Vec<Result<Part>> = near
+        .par_chunks(SEGMENT_CHUNK)
         .map(|c| {
             let (mut out, mut close) = (Vec::new(), None);
-            for i in c * SEGMENT_CHUNK..n.min((c + 1) * SEGMENT_CHUNK) {
-                segment_pieces(scene, sonar, pose, i, &mut out, &mut close)?;
+            for &i in c {
+                segment_pieces(scene, sonar, pose, i as usize, &mut out, &mut close)?;
             }
             Ok((out, close))
         })

@@ -16,7 +16,7 @@ use crate::scene::Scene;
 use crate::sonar::{Sonar, TooClose};
 use rayon::prelude::*;
 
-use super::pieces::{block_box, MAX_PIECES, PIECE_BLOCK};
+use super::pieces::{block_box, visit_spans, MAX_PIECES};
 use crate::lobe::bound::BoxTest;
 use crate::lobe::receivers_bound::test_box_heard;
 
@@ -49,6 +49,15 @@ fn narrowest_sigma(sonar: &Sonar, rxs: &[PlacedReceiver]) -> f64 {
     })
 }
 
+/// Half the largest distance of a receiver from the emitter (m): a delay range
+/// `(r_tx + r_rx)/2` is at least `r_tx` less this.
+fn half_offset(pose: &Pose, rxs: &[PlacedReceiver]) -> f64 {
+    rxs.iter().fold(0.0f64, |m, rx| {
+        let o = crate::math::vec3::sub(rx.position, pose.position);
+        m.max(0.5 * crate::math::vec3::norm(o))
+    })
+}
+
 /// Per receiver, the pieces of segment `i` that count, appended to `out[j]`; the first
 /// too-close one (segment, distance, the receiver or None for the emitter) into `too_close`.
 fn segment_pieces_heard(
@@ -67,11 +76,7 @@ fn segment_pieces_heard(
     let near = rxs.iter().fold(near_tx, |m, rx| {
         m.min(distance_to_segment(rx.position, a, b) - radius)
     });
-    // (a delay range (r_tx + r_rx)/2 is at least r_tx less half the receiver's offset)
-    let half_offset = rxs.iter().fold(0.0f64, |m, rx| {
-        let o = crate::math::vec3::sub(rx.position, pose.position);
-        m.max(0.5 * crate::math::vec3::norm(o))
-    });
+    let half_offset = half_offset(pose, rxs);
     if near_tx - half_offset > sonar.max_reach() {
         return Ok(());
     }
@@ -98,7 +103,8 @@ fn segment_pieces_heard(
         }
     };
     // Spans of pieces whose box lies beyond the reach or outside every receiver's lobe hold no
-    // piece that counts or is too close: skipped whole (the pieces that count are the same).
+    // piece that counts or is too close: skipped whole (the pieces that count are the same),
+    // the whole segment first.
     let span_out = |k0: usize, k1: usize| {
         let (lo, hi, s0, s1) = block_box(a, d, n, k0, k1, radius);
         let near_tx = distance_to_segment(pose.position, s0, s1) - radius;
@@ -110,22 +116,15 @@ fn segment_pieces_heard(
         });
         near >= sp.min_range && test_box_heard(sonar, pose, rxs, lo, hi) == BoxTest::Outside
     };
-    let mut skip_to = 0;
-    for k in 0..n {
-        if k % PIECE_BLOCK == 0 && span_out(k, (k + PIECE_BLOCK).min(n)) {
-            skip_to = (k + PIECE_BLOCK).min(n);
-        }
-        if k < skip_to {
-            continue;
-        }
+    visit_spans(0, n, &span_out, &mut |k| {
         let t = (2 * k + 1) as f64 / (2 * n) as f64;
         let c = [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
         match piece_sight(pose.position, c, u, radius, piece_len) {
             PieceSight::Inside => {
                 note_close(near_tx.min(0.0), None);
-                continue;
+                return;
             }
-            PieceSight::EndOn => continue,
+            PieceSight::EndOn => return,
             PieceSight::Lit { .. } => {}
         }
         for (j, rx) in rxs.iter().enumerate() {
@@ -164,7 +163,7 @@ fn segment_pieces_heard(
                 HeardDecision::Out => {}
             }
         }
-    }
+    });
     Ok(())
 }
 
@@ -186,14 +185,19 @@ pub fn branch_members_heard(
     if n == 0 {
         return Ok(out);
     }
+
+    // (the segments a piece of which may lie within the reach; see `segment_pieces_heard`)
+    let near = scene
+        .branches
+        .within(pose.position, sonar.max_reach() + half_offset(pose, rxs));
     type Part = (Vec<Vec<HeardPiece>>, Option<Close>);
-    let parts: Vec<Result<Part>> = (0..n.div_ceil(SEGMENT_CHUNK))
-        .into_par_iter()
+    let parts: Vec<Result<Part>> = near
+        .par_chunks(SEGMENT_CHUNK)
         .map(|c| {
             let mut mine: Vec<Vec<HeardPiece>> = (0..rxs.len()).map(|_| Vec::new()).collect();
             let mut close = None;
-            for i in c * SEGMENT_CHUNK..n.min((c + 1) * SEGMENT_CHUNK) {
-                segment_pieces_heard(scene, sonar, pose, rxs, i, &mut mine, &mut close)?;
+            for &i in c {
+                segment_pieces_heard(scene, sonar, pose, rxs, i as usize, &mut mine, &mut close)?;
             }
             Ok((mine, close))
         })

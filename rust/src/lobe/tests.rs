@@ -352,3 +352,26 @@ fn block_views_do_not_depend_on_the_scale_of_the_offsets() {
         }
     }
 }
+
+#[test]
+fn visit_spans_visits_in_order_every_piece_a_conservative_test_keeps() {
+    use crate::lobe::pieces::visit_spans;
+    // pieces 0..1000 of which those in [300, 420) and 777 count; a span is ruled out when it
+    // holds none of them
+    let counts = |k: usize| (300..420).contains(&k) || k == 777;
+    let out = |k0: usize, k1: usize| !(k0..k1).any(counts);
+    for n in [0, 1, 15, 16, 17, 1000] {
+        let mut seen = Vec::new();
+        visit_spans(0, n, &out, &mut |k| seen.push(k));
+        assert!(seen.windows(2).all(|w| w[0] < w[1]), "in order");
+        let kept: Vec<usize> = seen.iter().copied().filter(|&k| counts(k)).collect();
+        let all: Vec<usize> = (0..n).filter(|&k| counts(k)).collect();
+        assert_eq!(kept, all, "n = {n}");
+        assert!(
+            seen.len() <= all.len() + 32,
+            "visits {} for {}",
+            seen.len(),
+            all.len()
+        );
+    }
+}

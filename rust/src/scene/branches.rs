@@ -3,6 +3,7 @@
 //! shared end point (the joints of one skeleton).
 use crate::error::{invalid, Result};
 use crate::math::vec3::{dot, V3};
+use crate::physics::distance::point_box_distance;
 use crate::scene::bvh::segment_box;
 use crate::scene::leaves::MAX_COORDINATE;
 use obvhs::bvh2::builder::build_bvh2;
@@ -146,6 +147,42 @@ impl Branches {
     pub fn joined_to(&self, i: usize) -> &[u32] {
         &self.joined[self.joined_at[i] as usize..self.joined_at[i + 1] as usize]
     }
+
+    /// The segments (ascending) whose BVH box comes within `reach` (m) of `p`: every segment
+    /// whose surface does (`distance_to_segment - radius <= reach`), found on the BVH, since a
+    /// box holds its cylinder. The distances are compared with a slack of 1e-9 of the reach
+    /// and the coordinates (far above their rounding), so the list never misses one.
+    pub fn within(&self, p: V3, reach: f64) -> Vec<u32> {
+        let bvh = &self.bvh;
+        let mut out = Vec::new();
+        if bvh.nodes.is_empty() || !(reach >= 0.0) {
+            return out;
+        }
+        let scale = p.iter().fold(reach, |m, x| m.max(x.abs()));
+        let limit = reach + 1e-9 * (1.0 + scale);
+        let node_near = |ni: usize| {
+            let a = bvh.nodes[ni].aabb();
+            let lo = [a.min.x as f64, a.min.y as f64, a.min.z as f64];
+            let hi = [a.max.x as f64, a.max.y as f64, a.max.z as f64];
+            point_box_distance(p, lo, hi) <= limit
+        };
+        let mut stack = vec![0usize];
+        while let Some(ni) = stack.pop() {
+            if !node_near(ni) {
+                continue;
+            }
+            let node = &bvh.nodes[ni];
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                out.extend(&bvh.primitive_indices[first..first + node.prim_count as usize]);
+            } else {
+                let c = node.first_index as usize;
+                stack.extend([c, c + 1]);
+            }
+        }
+        out.sort_unstable();
+        out
+    }
 }
 
 /// For each segment, the other segments that share one of its end points exactly, as CSR
@@ -221,5 +258,43 @@ mod tests {
         assert!(e.to_string().contains("branch 1 radius"), "{e}");
         let e = Branches::new(vec![[0.0, f64::NAN, 0.0]], vec![[1.0; 3]], vec![0.1]).unwrap_err();
         assert!(e.to_string().contains("non-finite start"), "{e}");
+    }
+
+    #[test]
+    fn within_holds_every_segment_whose_surface_is_within_the_reach() {
+        use crate::physics::branch::distance_to_segment;
+        // a deterministic scatter of segments (a small linear congruential generator)
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut starts, mut ends, mut radii) = (Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..3000 {
+            let a = [20.0 * next(), 20.0 * next(), 8.0 * next()];
+            let d = [next() - 0.5, next() - 0.5, 2.0 * next()];
+            starts.push(a);
+            ends.push([a[0] + d[0], a[1] + d[1], a[2] + d[2]]);
+            radii.push(0.005 + 0.2 * next());
+        }
+        let b = Branches::new(starts, ends, radii).unwrap();
+        for q in 0..40 {
+            let p = [20.0 * next(), 20.0 * next(), 8.0 * next()];
+            let reach = 0.5 * q as f64 / 4.0;
+            let got = b.within(p, reach);
+            assert!(got.windows(2).all(|w| w[0] < w[1]), "ascending, no repeats");
+            for i in 0..b.len() {
+                let near = distance_to_segment(p, b.starts[i], b.ends[i]) - b.radii[i];
+                if near <= reach {
+                    assert!(got.binary_search(&(i as u32)).is_ok(), "segment {i} missed");
+                }
+            }
+            // (and it is a pruning: far fewer than all once the reach is small)
+            if reach < 1.0 {
+                assert!(got.len() < b.len() / 4, "{} of {}", got.len(), b.len());
+            }
+        }
     }
 }

@@ -114,6 +114,12 @@ fn leaf_terms_spectrum(
 /// [`wood_spectrum`]).
 const WOOD_TOL_MARGIN: f64 = 4.0;
 
+/// The wood's first fast sum is taken at its tolerance divided by this (see
+/// [`wood_spectrum`]): the pieces of a segment cancel at their shared edges, commonly to a
+/// half or a third of the root sum of squares of their sizes, which a tenth of the tolerance
+/// clears with [`WOOD_TOL_MARGIN`], so that one sum is enough.
+const WOOD_FIRST_TIGHTENING: f64 = 10.0;
+
 /// An upper bound on the size of a piece's echo over the band (its largest factor times its
 /// amplitude times the square root of the bin count): the scale of its error in the fast sum.
 fn piece_size(sonar: &Sonar, t: &BranchTerm) -> f64 {
@@ -125,15 +131,37 @@ fn piece_size(sonar: &Sonar, t: &BranchTerm) -> f64 {
     t.amp * c0 * k_hi.sqrt() * sinc_bound * (k.len() as f64).sqrt()
 }
 
+/// The norm of a spectrum.
+fn norm(re: &[f64], im: &[f64]) -> f64 {
+    re.iter()
+        .zip(im)
+        .map(|(a, b)| a * a + b * b)
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The fast plan at tolerance `tol`, if it is within the fast method's floor and cheaper than
+/// the exact sum of `points` echo points.
+fn cheaper_plan(sonar: &FastSonar, tol: f64, points: usize) -> Option<std::sync::Arc<FastPlan>> {
+    let m = sonar.n_bins();
+    if tol < MIN_TOL {
+        return None;
+    }
+    let pl = sonar.plans.get(sonar, tol).ok()?;
+    (cost_fast(points, m, &pl) < cost_exact(points, m)).then_some(pl)
+}
+
 /// The windowed spectrum of branch terms by the cheaper method for their number of echo
 /// points (one or two a piece, each costing about what a smooth leaf does).
 ///
-/// The fast method keeps each point's error within its plan's `tol` of that point's size, and
-/// the errors add about as a root sum of squares. The pieces of one segment cancel (their shared
-/// edges), so the wood's sum may be far smaller than its pieces: where the root sum of squares of
-/// the pieces' sizes, times [`WOOD_TOL_MARGIN`], exceeds the sum's norm, the sum is redone with
-/// the plan's `tol` tightened by that ratio (rounded down to a power of ten, so that few plans
-/// are built), or exactly where that falls below the fast method's floor or costs more.
+/// The fast method at tolerance `t` keeps each point's error within `t` of that point's size,
+/// and the errors add about as a root sum of squares (`rss`, of the pieces' sizes). The pieces
+/// of one segment cancel (their shared edges), so the wood's sum may be far smaller than its
+/// pieces: a fast sum at `t` is kept only where `WOOD_TOL_MARGIN t rss` is within the plan's
+/// `tol` times the sum's norm. The first sum is taken at `tol /` [`WOOD_FIRST_TIGHTENING`];
+/// where it is not kept, the sum is redone with the tolerance tightened by the ratio
+/// (rounded down to a power of ten, so that few plans are built), or exactly where that falls
+/// below the fast method's floor or costs more.
 pub(crate) fn wood_spectrum(
     sonar: &FastSonar,
     plan: Option<&FastPlan>,
@@ -141,35 +169,29 @@ pub(crate) fn wood_spectrum(
 ) -> (Vec<f64>, Vec<f64>) {
     let m = sonar.n_bins();
     let points = 2 * terms.len();
-    let pl = match plan {
-        Some(pl) if cost_fast(points, m, pl) < cost_exact(points, m) => pl,
+    let tol = match plan {
+        Some(pl) if cost_fast(points, m, pl) < cost_exact(points, m) => pl.tol,
         _ => return sum_branch_terms(sonar, terms),
     };
-    let (re, im) = fast_branch_spectrum(sonar, pl, terms);
-    let norm = re
-        .iter()
-        .zip(&im)
-        .map(|(a, b)| a * a + b * b)
-        .sum::<f64>()
-        .sqrt();
     let rss = terms
         .iter()
         .map(|t| piece_size(sonar, t).powi(2))
         .sum::<f64>()
         .sqrt();
-    if WOOD_TOL_MARGIN * rss <= norm {
+    let Some(first) = cheaper_plan(sonar, tol / WOOD_FIRST_TIGHTENING, points) else {
+        return sum_branch_terms(sonar, terms);
+    };
+    let (re, im) = fast_branch_spectrum(sonar, &first, terms);
+    let norm = norm(&re, &im);
+    if WOOD_TOL_MARGIN * first.tol * rss <= tol * norm {
         return (re, im);
     }
-    let tight = pl.tol * norm / (WOOD_TOL_MARGIN * rss);
+    let tight = tol * norm / (WOOD_TOL_MARGIN * rss);
     let tight = 10f64.powf(tight.log10().floor());
-    if tight >= MIN_TOL {
-        if let Ok(tp) = sonar.plans.get(sonar, tight) {
-            if cost_fast(points, m, &tp) < cost_exact(points, m) {
-                return fast_branch_spectrum(sonar, &tp, terms);
-            }
-        }
+    match cheaper_plan(sonar, tight, points) {
+        Some(tp) if tp.tol < first.tol => fast_branch_spectrum(sonar, &tp, terms),
+        _ => sum_branch_terms(sonar, terms),
     }
-    sum_branch_terms(sonar, terms)
 }
 
 /// The shading of every counting leaf and piece of one pose: their factors in the members'
