@@ -15,7 +15,7 @@
 
 use crate::echo::term::{leaf_amp, leaf_term, LeafTerm};
 use crate::echo::{paper_regime, paper_regime_of};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::fast::subband::KinkedLeaf;
 use crate::fast::FastSonar;
 use crate::fast::{
@@ -24,10 +24,10 @@ use crate::fast::{
     ADAPT_MIN_LEAVES, LB, NOT_KINKED,
 };
 use crate::lobe::candidates::Candidates;
-use crate::lobe::{classify_candidates, classify_member, BlockView};
+use crate::lobe::{classify_candidates, classify_member, refuse_too_close, BlockView};
 use crate::physics::pose::Pose;
 use crate::scene::Scene;
-use crate::sonar::{LeafModel, TooClose};
+use crate::sonar::LeafModel;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
@@ -280,20 +280,7 @@ pub fn fast_pulse(
             )
         })
         .collect();
-    if sonar.params.too_close == TooClose::Error {
-        if let Some((leaf, range)) = parts
-            .iter()
-            .filter_map(|p| p.too_close)
-            .min_by_key(|&(leaf, _)| leaf)
-        {
-            return Err(Error::TooClose {
-                pose: pose_index,
-                leaf,
-                range,
-                min_range: sonar.params.min_range,
-            });
-        }
-    }
+    refuse_too_close(sonar, pose_index, parts.iter().filter_map(|p| p.too_close))?;
     let m = sonar.n_bins();
     if parts.is_empty() {
         return Ok((vec![0.0; m], vec![0.0; m], 0));
@@ -501,7 +488,7 @@ mod tests {
             crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).map(|_| ()),
         ] {
             match res {
-                Err(Error::TooClose { leaf, .. }) => assert_eq!(leaf, want),
+                Err(crate::error::Error::TooClose { leaf, .. }) => assert_eq!(leaf, want),
                 other => panic!("expected a too-close error, got {other:?}"),
             }
         }

@@ -41,6 +41,26 @@ const CLASSIFY_CHUNK: usize = 2048;
 /// Per chunk of candidates: the counting leaves, and the first too-close leaf (index, range).
 type Part = (Vec<Member>, Option<(usize, f64)>);
 
+/// The error for a pose's too-close leaves `near` (caller's index, range): the smallest index
+/// (the first of equals) when the sonar refuses them, else none.
+pub(crate) fn refuse_too_close(
+    sonar: &Sonar,
+    pose_index: usize,
+    near: impl Iterator<Item = (usize, f64)>,
+) -> Result<()> {
+    if sonar.params.too_close == TooClose::Error {
+        if let Some((leaf, range)) = near.min_by_key(|&(l, _)| l) {
+            return Err(Error::TooClose {
+                pose: pose_index,
+                leaf,
+                range,
+                min_range: sonar.params.min_range,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// The libm decision for a leaf on the detectable boundary (see [`classify_block`]), exactly
 /// as the reference makes it.
 pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32) -> Option<Member> {
@@ -120,16 +140,7 @@ pub fn counting_positions(
             counting_chunk(scene, sonar, pose, cands, span)
         })
         .collect();
-    if sonar.params.too_close == TooClose::Error {
-        if let Some((leaf, range)) = parts.iter().filter_map(|p| p.1).min_by_key(|&(l, _)| l) {
-            return Err(Error::TooClose {
-                pose: pose_index,
-                leaf,
-                range,
-                min_range: sonar.params.min_range,
-            });
-        }
-    }
+    refuse_too_close(sonar, pose_index, parts.iter().filter_map(|p| p.1))?;
     Ok(parts.into_iter().flat_map(|p| p.0).collect())
 }
 
@@ -223,16 +234,7 @@ pub fn members_of(
             .map(classify_chunk)
             .collect()
     };
-    if sonar.params.too_close == TooClose::Error {
-        if let Some((leaf, range)) = parts.iter().filter_map(|p| p.1).min_by_key(|&(l, _)| l) {
-            return Err(Error::TooClose {
-                pose: pose_index,
-                leaf,
-                range,
-                min_range: sonar.params.min_range,
-            });
-        }
-    }
+    refuse_too_close(sonar, pose_index, parts.iter().filter_map(|p| p.1))?;
     let mut out = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
     for (m, _) in parts {
         out.extend(m);

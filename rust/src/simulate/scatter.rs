@@ -272,13 +272,9 @@ pub fn pose_echo(
         }
     };
     let echo = PoseEcho {
-        re,
-        im,
-        wood_re: Vec::new(),
-        wood_im: Vec::new(),
-        n_leaves,
         n_pieces: pieces.len() as u64,
         n_shaded,
+        ..PoseEcho::of_leaves(re, im, n_leaves)
     };
     Ok(with_wood(scene, sonar, plan, echo, &wood))
 }
@@ -326,13 +322,9 @@ fn shaded_fused(
         by_position.as_deref(),
     )?;
     let echo = PoseEcho {
-        re,
-        im,
-        wood_re: Vec::new(),
-        wood_im: Vec::new(),
-        n_leaves,
         n_pieces: pieces.len() as u64,
         n_shaded,
+        ..PoseEcho::of_leaves(re, im, n_leaves)
     };
     Ok(with_wood(scene, sonar, Some(plan), echo, &wood))
 }
