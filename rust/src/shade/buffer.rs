@@ -30,6 +30,8 @@ struct Face {
 pub(super) struct Buffer {
     faces: [Face; 6],
     h: f64,
+    /// `1 / h`, by which [`Buffer::coord`] scales.
+    inv_h: f64,
     n_cells: usize,
     /// The targets of cell `c` are `order[start[c]..start[c + 1]]` (indices into the caller's
     /// targets); cells of one row of one face are consecutive.
@@ -63,7 +65,8 @@ fn face_of(w: V3) -> (usize, f64, f64) {
 fn slopes(vb: f64, z: f64, rho: f64) -> (f64, f64) {
     let den = z * z - rho * rho;
     let root = rho * (vb * vb + den).sqrt();
-    let (lo, hi) = ((vb * z - root) / den, (vb * z + root) / den);
+    let inv = 1.0 / den;
+    let (lo, hi) = ((vb * z - root) * inv, (vb * z + root) * inv);
     (lo - WIDEN * (1.0 + lo.abs()), hi + WIDEN * (1.0 + hi.abs()))
 }
 
@@ -113,6 +116,7 @@ impl Buffer {
         let mut buf = Buffer {
             faces,
             h,
+            inv_h: 1.0 / h,
             n_cells,
             start: Vec::new(),
             order: Vec::new(),
@@ -173,7 +177,7 @@ impl Buffer {
     #[inline(always)]
     fn coord(&self, x: f64, x0: f64) -> usize {
         // (the cast truncates, which is the floor where c > 0; NaN and c <= 0 give 0)
-        let c = (x - x0) / self.h;
+        let c = (x - x0) * self.inv_h;
         if c > 0.0 {
             c as usize
         } else {

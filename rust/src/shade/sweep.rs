@@ -1,14 +1,14 @@
 //! The leaf disks' pass over the light buffer: each occluding leaf is tested against the
 //! targets of the cells its bounding ball reaches (rows of cells, contiguous in memory),
 //! farther than its nearest point, by the exact test of [`Disk::crossed_by`] written lane by
-//! lane so that it vectorises. The lanes
-//! perform the same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so
-//! they decide every ray alike.
+//! lane, in AVX2 where the CPU has it and in portable code otherwise. The lanes perform the
+//! same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so they decide
+//! every ray alike.
 use super::buffer::Buffer;
 use super::crossing::Disk;
+use crate::math::prefetch;
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
-use multiversion::multiversion;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// The targets as the occluder loops read them, one entry per position of the buffer's order
@@ -36,8 +36,8 @@ impl Rays {
 pub(super) const LANES: usize = 8;
 
 /// Count, for every target, the disks of the leaves `chunk` (stored indices) that its ray
-/// crosses, into `crossings` (by position).
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+/// crosses, into `crossings` (by position). The chunk's disks and their runs of positions come
+/// first (independent scalar work that pipelines), then the tests.
 pub(super) fn leaf_chunk(
     scene: &Scene,
     origin: V3,
@@ -46,71 +46,306 @@ pub(super) fn leaf_chunk(
     chunk: &[u32],
     crossings: &[AtomicU32],
 ) {
-    for &j in chunk {
+    let mut disks: Vec<Occluder> = Vec::with_capacity(chunk.len());
+    let mut runs: Vec<(u32, u32)> = Vec::with_capacity(4 * chunk.len());
+    for (k, &j) in chunk.iter().enumerate() {
+        // (the leaves come in the buffer's order, scattered in storage: their data is asked
+        // for a few leaves ahead)
+        if let Some(&ahead) = chunk.get(k + GATHER_AHEAD) {
+            let ahead = ahead as usize;
+            let (c, nn) = (&scene.centers, &scene.normals);
+            for arr in [&c.x, &c.y, &c.z, &nn.x, &nn.y, &nn.z, &scene.radii] {
+                prefetch::line(arr, ahead);
+            }
+        }
         let c = scene.centers.get(j as usize);
         let v = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
         let a = scene.radii[j as usize];
-        let disk = Disk::new(v, scene.normals.get(j as usize), a);
-        // (no crossing of a ray shorter than the disk's nearest distance)
-        let near = (dot(v, v).sqrt() - a) * (1.0 - 1e-12);
-        let mut visit = |c0: usize, c1: usize| {
-            let (lo, hi) = (buf.start[c0] as usize, buf.start[c1] as usize);
-            test_disk(&disk, near, j, rays, lo, hi, crossings);
+        let mut push = |c0: usize, c1: usize| {
+            let (lo, hi) = (buf.start[c0], buf.start[c1]);
+            if lo < hi {
+                runs.push((lo, hi));
+            }
         };
-        if !buf.ball_cells(v, a, &mut visit) {
-            visit(0, buf.n_cells());
+        // (a ball too near the sonar to bin visits nothing: every target is tested)
+        if !buf.ball_cells(v, a, &mut push) {
+            push(0, buf.n_cells());
         }
+        disks.push(Occluder {
+            disk: Disk::new(v, scene.normals.get(j as usize), a),
+            // (no crossing of a ray shorter than the disk's nearest distance)
+            near: (dot(v, v).sqrt() - a) * (1.0 - 1e-12),
+            leaf: j,
+            runs_end: runs.len() as u32,
+        });
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        unsafe { test_chunk_avx2(&disks, &runs, rays, crossings) };
+        return;
+    }
+    test_chunk(&disks, &runs, rays, crossings);
+}
+
+/// How many leaves ahead [`leaf_chunk`] asks for a leaf's data.
+const GATHER_AHEAD: usize = 12;
+
+/// An occluding leaf as the tests take it: its disk, the range below which no ray can cross
+/// it, its stored index, and the end of its runs in the chunk's list.
+struct Occluder {
+    disk: Disk,
+    near: f64,
+    leaf: u32,
+    runs_end: u32,
+}
+
+/// Count a hit of the disk of leaf `own` by the lanes `bits` of the step at `at` (lanes at or
+/// past `hi` are padding), unless the ray is that leaf's own.
+#[inline(always)]
+fn count_hits(mut bits: u32, at: usize, hi: usize, own: u32, rays: &Rays, crossings: &[AtomicU32]) {
+    let live = hi - at;
+    if live < LANES {
+        bits &= (1u32 << live) - 1;
+    }
+    while bits != 0 {
+        let pos = at + bits.trailing_zeros() as usize;
+        if rays.leaf[pos] != own {
+            crossings[pos].fetch_add(1, Ordering::Relaxed);
+        }
+        bits &= bits - 1;
     }
 }
 
-/// The exact disk test against the rays at positions `lo..hi` longer than `near`, [`LANES`]
-/// at a time: the lanes' verdicts first (vectorised, all in f64), then, for each hit of a
-/// lane before `hi`, a count unless the ray is the disk's own leaf's.
-#[inline(always)]
-fn test_disk(
-    disk: &Disk,
-    near: f64,
-    own: u32,
-    rays: &Rays,
-    lo: usize,
-    hi: usize,
-    crossings: &[AtomicU32],
-) {
-    let (n0, n1, n2) = (disk.n[0], disk.n[1], disk.n[2]);
-    let (v0, v1, v2) = (disk.v[0], disk.v[1], disk.v[2]);
-    let (nv, a2) = (disk.nv, disk.a2);
+/// The exact disk test of every occluder against the rays of its runs, [`LANES`] at a time,
+/// in portable code (the same f64 operations, in the same order, as [`Disk::crossed_by`]).
+fn test_chunk(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, crossings: &[AtomicU32]) {
     let lanes = |a: &[f64], at: usize| -> [f64; LANES] {
         a[at..at + LANES].try_into().expect("padded rays")
     };
-    let mut at = lo;
-    while at < hi {
-        let (x, y, z, range) = (
-            lanes(&rays.x, at),
-            lanes(&rays.y, at),
-            lanes(&rays.z, at),
-            lanes(&rays.range, at),
-        );
-        let mut bits = 0u32;
-        for k in 0..LANES {
-            let (wx, wy, wz) = (x[k], y[k], z[k]);
-            let d = n0 * wx + n1 * wy + n2 * wz;
-            let t = nv / d;
-            let (q0, q1, q2) = (t * wx - v0, t * wy - v1, t * wz - v2);
-            let qq = q0 * q0 + q1 * q1 + q2 * q2;
-            let yes = (range[k] > near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
-            bits |= u32::from(yes) << k;
-        }
-        let live = hi - at;
-        if live < LANES {
-            bits &= (1u32 << live) - 1;
-        }
-        while bits != 0 {
-            let pos = at + bits.trailing_zeros() as usize;
-            if rays.leaf[pos] != own {
-                crossings[pos].fetch_add(1, Ordering::Relaxed);
+    let mut first = 0usize;
+    for o in disks {
+        let Disk { v, n, nv, a2 } = o.disk;
+        for &(lo, hi) in &runs[first..o.runs_end as usize] {
+            let (mut at, hi) = (lo as usize, hi as usize);
+            while at < hi {
+                let (x, y, z, range) = (
+                    lanes(&rays.x, at),
+                    lanes(&rays.y, at),
+                    lanes(&rays.z, at),
+                    lanes(&rays.range, at),
+                );
+                let mut bits = 0u32;
+                for k in 0..LANES {
+                    let (wx, wy, wz) = (x[k], y[k], z[k]);
+                    let d = n[0] * wx + n[1] * wy + n[2] * wz;
+                    let t = nv / d;
+                    let (q0, q1, q2) = (t * wx - v[0], t * wy - v[1], t * wz - v[2]);
+                    let qq = q0 * q0 + q1 * q1 + q2 * q2;
+                    let yes = (range[k] > o.near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
+                    bits |= u32::from(yes) << k;
+                }
+                count_hits(bits, at, hi, o.leaf, rays, crossings);
+                at += LANES;
             }
-            bits &= bits - 1;
         }
-        at += LANES;
+        first = o.runs_end as usize;
+    }
+}
+
+/// [`test_chunk`] in AVX2: two registers of four lanes per step, each operation the IEEE f64
+/// operation of the portable code (no FMA), and the comparisons' NaN cases alike (`d != 0` is
+/// true for NaN, the others false).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn test_chunk_avx2(
+    disks: &[Occluder],
+    runs: &[(u32, u32)],
+    rays: &Rays,
+    crossings: &[AtomicU32],
+) {
+    use std::arch::x86_64::*;
+    let mut first = 0usize;
+    for o in disks {
+        let Disk { v, n, nv, a2 } = o.disk;
+        let (n0, n1, n2) = (
+            _mm256_set1_pd(n[0]),
+            _mm256_set1_pd(n[1]),
+            _mm256_set1_pd(n[2]),
+        );
+        let (v0, v1, v2) = (
+            _mm256_set1_pd(v[0]),
+            _mm256_set1_pd(v[1]),
+            _mm256_set1_pd(v[2]),
+        );
+        let (nv, a2, near) = (
+            _mm256_set1_pd(nv),
+            _mm256_set1_pd(a2),
+            _mm256_set1_pd(o.near),
+        );
+        let (zero, one) = (_mm256_setzero_pd(), _mm256_set1_pd(1.0));
+        let half = |at: usize| -> i32 {
+            // SAFETY: `at + 4 <= len` for every step: the rays are padded by LANES.
+            let (x, y, z, range) = unsafe {
+                (
+                    _mm256_loadu_pd(rays.x.as_ptr().add(at)),
+                    _mm256_loadu_pd(rays.y.as_ptr().add(at)),
+                    _mm256_loadu_pd(rays.z.as_ptr().add(at)),
+                    _mm256_loadu_pd(rays.range.as_ptr().add(at)),
+                )
+            };
+            let d = _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(n0, x), _mm256_mul_pd(n1, y)),
+                _mm256_mul_pd(n2, z),
+            );
+            let t = _mm256_div_pd(nv, d);
+            let q0 = _mm256_sub_pd(_mm256_mul_pd(t, x), v0);
+            let q1 = _mm256_sub_pd(_mm256_mul_pd(t, y), v1);
+            let q2 = _mm256_sub_pd(_mm256_mul_pd(t, z), v2);
+            let qq = _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(q0, q0), _mm256_mul_pd(q1, q1)),
+                _mm256_mul_pd(q2, q2),
+            );
+            let yes = _mm256_and_pd(
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(range, near),
+                    _mm256_cmp_pd::<_CMP_NEQ_UQ>(d, zero),
+                ),
+                _mm256_and_pd(
+                    _mm256_and_pd(
+                        _mm256_cmp_pd::<_CMP_GT_OQ>(t, zero),
+                        _mm256_cmp_pd::<_CMP_LT_OQ>(t, one),
+                    ),
+                    _mm256_cmp_pd::<_CMP_LE_OQ>(qq, a2),
+                ),
+            );
+            _mm256_movemask_pd(yes)
+        };
+        for &(lo, hi) in &runs[first..o.runs_end as usize] {
+            assert!(hi as usize + LANES <= rays.x.len());
+            let (mut at, hi) = (lo as usize, hi as usize);
+            while at < hi {
+                let bits = (half(at) | (half(at + 4) << 4)) as u32;
+                count_hits(bits, at, hi, o.leaf, rays, crossings);
+                at += LANES;
+            }
+        }
+        first = o.runs_end as usize;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::uniforms;
+
+    /// Rays (padded) and disks with hard cases: rays through a disk's rim, rays in a disk's
+    /// plane, rays shorter than a disk's nearest point, and a disk's own leaf's ray.
+    fn hard_cases() -> (Vec<Occluder>, Vec<(u32, u32)>, Rays) {
+        let mut u = uniforms(5);
+        let mut w: Vec<(V3, u32)> = Vec::new();
+        let mut disks = Vec::new();
+        for j in 0..40u32 {
+            let v = [2.0 + 3.0 * u(), u() - 0.5, u() - 0.5];
+            let n = {
+                let n = [u() - 0.5, u() - 0.5, u() - 0.5];
+                let l = dot(n, n).sqrt();
+                n.map(|x| x / l)
+            };
+            let a = 0.01 + 0.05 * u();
+            // a unit vector in the disk's plane
+            let e = {
+                let p = [n[1], -n[0], 0.0];
+                let l = dot(p, p).sqrt();
+                p.map(|x| x / l)
+            };
+            for k in 0..12 {
+                let s = match k {
+                    0..=7 => 1.0 + 2.0 * u(), // through the rim, beyond the disk
+                    8 => 1.0,                 // ending on the rim
+                    9 => 0.99,                // ending before the rim
+                    _ => 1.0 + u(),
+                };
+                let rim = [v[0] + a * e[0], v[1] + a * e[1], v[2] + a * e[2]];
+                let target = match k {
+                    10 => [v[0] + 3.0 * e[0], v[1] + 3.0 * e[1], v[2] + 3.0 * e[2]], // in plane
+                    11 => v.map(|x| 1.5 * x), // straight through the centre
+                    _ => rim.map(|x| s * x),
+                };
+                w.push((target, if k == 11 && j % 2 == 0 { j } else { u32::MAX }));
+            }
+            disks.push(Occluder {
+                disk: Disk::new(v, n, a),
+                near: (dot(v, v).sqrt() - a) * (1.0 - 1e-12),
+                leaf: j,
+                runs_end: 0,
+            });
+        }
+        let m = w.len();
+        let mut rays = Rays {
+            x: vec![0.0; m + LANES],
+            y: vec![0.0; m + LANES],
+            z: vec![0.0; m + LANES],
+            range: vec![f64::NEG_INFINITY; m + LANES],
+            leaf: vec![u32::MAX; m + LANES],
+            segment: vec![u32::MAX; m + LANES],
+        };
+        for (i, (p, leaf)) in w.iter().enumerate() {
+            (rays.x[i], rays.y[i], rays.z[i]) = (p[0], p[1], p[2]);
+            rays.range[i] = dot(*p, *p).sqrt();
+            rays.leaf[i] = *leaf;
+        }
+        // every disk against runs of every length and alignment, the whole list included
+        let mut runs = Vec::new();
+        for (j, d) in disks.iter_mut().enumerate() {
+            let lo = (7 * j) % m;
+            runs.push((lo as u32, (lo + 1 + j % 13).min(m) as u32));
+            runs.push((0, m as u32));
+            d.runs_end = runs.len() as u32;
+        }
+        (disks, runs, rays)
+    }
+
+    fn counts(f: impl FnOnce(&[AtomicU32])) -> Vec<u32> {
+        let (_, _, rays) = hard_cases();
+        let c: Vec<AtomicU32> = (0..rays.x.len()).map(|_| AtomicU32::new(0)).collect();
+        f(&c);
+        c.iter().map(|x| x.load(Ordering::Relaxed)).collect()
+    }
+
+    #[test]
+    fn the_lanes_count_what_the_scalar_disk_test_decides() {
+        let (disks, runs, rays) = hard_cases();
+        let got = counts(|c| test_chunk(&disks, &runs, &rays, c));
+        let mut want = vec![0u32; rays.x.len()];
+        let mut first = 0;
+        for o in &disks {
+            for &(lo, hi) in &runs[first..o.runs_end as usize] {
+                let (lo, hi) = (lo as usize, hi as usize);
+                for (pos, count) in want.iter_mut().enumerate().take(hi).skip(lo) {
+                    let w = rays.w(pos);
+                    if rays.range[pos] > o.near && rays.leaf[pos] != o.leaf && o.disk.crossed_by(w)
+                    {
+                        *count += 1;
+                    }
+                }
+            }
+            first = o.runs_end as usize;
+        }
+        assert!(want.iter().sum::<u32>() > 100, "the cases cross disks");
+        assert_eq!(got, want);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_lanes_count_what_the_portable_lanes_count() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let (disks, runs, rays) = hard_cases();
+        let portable = counts(|c| test_chunk(&disks, &runs, &rays, c));
+        // SAFETY: the CPU has AVX2.
+        let avx2 = counts(|c| unsafe { test_chunk_avx2(&disks, &runs, &rays, c) });
+        assert_eq!(avx2, portable);
     }
 }
