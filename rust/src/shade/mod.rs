@@ -20,7 +20,7 @@ use crossing::Cylinder;
 use occluders::{occluding_leaves, occluding_segments, Cone};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use sweep::{leaf_chunk, Rays, LANES};
+use sweep::{leaf_chunk, Rays};
 
 /// A scatterer whose ray is cast: its point (a leaf's centre, a branch piece's reference
 /// point) and what it is, so that it is never its own occluder.
@@ -187,18 +187,11 @@ fn by_cell(scene: &Scene, origin: V3, buf: &Buffer, leaves: &[u32]) -> Vec<u32> 
     out
 }
 
-/// The targets' rays in the buffer's order (gathered in parallel), then [`LANES`] inert
-/// entries (no length, no ray) that the disk test's last lanes may read.
+/// The targets' rays in the buffer's order (gathered in parallel), padded as
+/// [`Rays::inert`] pads them.
 fn rays_in_order(targets: &[Target], buf: &Buffer, w: &[V3], r: &[f64]) -> Rays {
     let n = targets.len();
-    let mut rays = Rays {
-        x: vec![0.0; n + LANES],
-        y: vec![0.0; n + LANES],
-        z: vec![0.0; n + LANES],
-        range: vec![f64::NEG_INFINITY; n + LANES],
-        leaf: vec![u32::MAX; n + LANES],
-        segment: vec![u32::MAX; n + LANES],
-    };
+    let mut rays = Rays::inert(n);
     const GATHER_CHUNK: usize = 4096;
     (
         rays.x[..n].par_chunks_mut(GATHER_CHUNK),

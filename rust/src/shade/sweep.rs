@@ -24,6 +24,19 @@ pub(super) struct Rays {
 }
 
 impl Rays {
+    /// `n` inert entries (no ray, no length, no leaf or segment) and [`LANES`] more past them,
+    /// which the disk test's last lanes may read: to be filled with `n` rays.
+    pub fn inert(n: usize) -> Rays {
+        Rays {
+            x: vec![0.0; n + LANES],
+            y: vec![0.0; n + LANES],
+            z: vec![0.0; n + LANES],
+            range: vec![f64::NEG_INFINITY; n + LANES],
+            leaf: vec![u32::MAX; n + LANES],
+            segment: vec![u32::MAX; n + LANES],
+        }
+    }
+
     /// The ray `position`.
     #[inline(always)]
     pub fn w(&self, pos: usize) -> V3 {
@@ -282,14 +295,7 @@ mod tests {
             });
         }
         let m = w.len();
-        let mut rays = Rays {
-            x: vec![0.0; m + LANES],
-            y: vec![0.0; m + LANES],
-            z: vec![0.0; m + LANES],
-            range: vec![f64::NEG_INFINITY; m + LANES],
-            leaf: vec![u32::MAX; m + LANES],
-            segment: vec![u32::MAX; m + LANES],
-        };
+        let mut rays = Rays::inert(m);
         for (i, (p, leaf)) in w.iter().enumerate() {
             (rays.x[i], rays.y[i], rays.z[i]) = (p[0], p[1], p[2]);
             rays.range[i] = dot(*p, *p).sqrt();
