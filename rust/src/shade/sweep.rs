@@ -272,7 +272,7 @@ mod tests {
                 let l = dot(p, p).sqrt();
                 p.map(|x| x / l)
             };
-            for k in 0..12 {
+            for k in 0..13 {
                 let s = match k {
                     0..=7 => 1.0 + 2.0 * u(), // through the rim, beyond the disk
                     8 => 1.0,                 // ending on the rim
@@ -283,6 +283,7 @@ mod tests {
                 let target = match k {
                     10 => [v[0] + 3.0 * e[0], v[1] + 3.0 * e[1], v[2] + 3.0 * e[2]], // in plane
                     11 => v.map(|x| 1.5 * x), // straight through the centre
+                    12 => v.map(|x| 0.5 * x), // short of the disk's nearest point
                     _ => rim.map(|x| s * x),
                 };
                 w.push((target, if k == 11 && j % 2 == 0 { j } else { u32::MAX }));
@@ -293,6 +294,19 @@ mod tests {
                 leaf: j,
                 runs_end: 0,
             });
+        }
+        // Exact decisions in binary: the disk at (2, 0, 0) facing x with radius 0.5; a ray
+        // meeting its rim exactly (t = 1/2, |q|^2 = a^2, crossed), one ending exactly on its
+        // plane (t = 1, not crossed) and one just outside its rim.
+        let (v, n, a) = ([2.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.5);
+        disks.push(Occluder {
+            disk: Disk::new(v, n, a),
+            near: (dot(v, v).sqrt() - a) * (1.0 - 1e-12),
+            leaf: 40,
+            runs_end: 0,
+        });
+        for target in [[4.0, 1.0, 0.0], [2.0, 0.25, 0.0], [4.0, 1.0 + 1e-15, 0.0]] {
+            w.push((target, u32::MAX));
         }
         let m = w.len();
         let mut rays = Rays::inert(m);
