@@ -111,8 +111,9 @@ def echo_levels(envs: Sequence[Any]) -> list[np.ndarray]:
             tol,
         )
         k0 = round(float(sonar.freqs[0]) * int(sonar.n_samples) / sonar.fs)
-        stride = first.envelope_stride
-        for i, (spectrum, _) in zip(members, results, strict=True):
-            env = band_envelope(spectrum[0], k0, int(sonar.n_samples), stride)
-            out[i] = envs[i].echo_bins.levels(env)
+        # (the group's envelopes in one inverse FFT: each row's is the one it gets alone)
+        spectra = np.stack([spectrum[0] for spectrum, _ in results])
+        envelopes = band_envelope(spectra, k0, int(sonar.n_samples), first.envelope_stride)
+        for i, envelope in zip(members, envelopes, strict=True):
+            out[i] = envs[i].echo_bins.levels(envelope)
     return out
