@@ -3,12 +3,15 @@ and clearances."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import subprocess
 import sys
 import textwrap
 
 import numpy as np
+
+import batecho
 
 SCRIPT = textwrap.dedent(
     """
@@ -84,3 +87,29 @@ def test_repeated_calls_are_bit_identical():
     b = batecho.simulate(scene, batecho.Sonar(), pose)
     assert a.spectrum.tobytes() == b.spectrum.tobytes()
     assert a.impulse.tobytes() == b.impulse.tobytes()
+
+
+def _simulate_in_child(queue):
+    from batecho.echoes.canonical import canonical_leaf_box
+
+    leaves = canonical_leaf_box(np.random.default_rng(3))
+    poses = batecho.Poses([[0, 0, 0], [0, 0.3, 0.1]], [[1, 0, 0], [1, 0.1, 0]])
+    fast = batecho.simulate(leaves, batecho.Sonar(), poses, method="fast", tol=1e-6)
+    queue.put(fast.spectrum.tobytes())
+
+
+def test_a_forked_child_simulates_what_its_parent_does():
+    # The parent's worker threads are not copied into a forked child; the child must make its
+    # own rather than wait for them forever.
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    _simulate_in_child(queue)  # the parent's pool is running before the fork
+    parent = queue.get(timeout=60)
+    child = ctx.Process(target=_simulate_in_child, args=(queue,))
+    child.start()
+    child.join(timeout=120)
+    if child.is_alive():
+        child.kill()
+        raise AssertionError("the forked child hung")
+    assert child.exitcode == 0
+    assert queue.get(timeout=10) == parent

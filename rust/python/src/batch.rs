@@ -57,16 +57,15 @@ pub(crate) fn simulate_many_py<'py>(
     let method = method_from(method, tol)?;
     let inner: Vec<_> = scenes.iter().map(|s| s.inner.clone()).collect();
     let so = sonar.inner.clone();
-    let outs = py
-        .detach(move || {
-            let jobs: Vec<_> = inner
-                .iter()
-                .zip(&poses)
-                .map(|(s, p)| (&**s, p.as_slice()))
-                .collect();
-            simulate_many(&jobs, &so, false, search, method)
-        })
-        .map_err(to_py)?;
+    let outs = crate::pool::released(py, move || {
+        let jobs: Vec<_> = inner
+            .iter()
+            .zip(&poses)
+            .map(|(s, p)| (&**s, p.as_slice()))
+            .collect();
+        simulate_many(&jobs, &so, false, search, method)
+    })
+    .map_err(to_py)?;
     Ok(outs.into_iter().map(|e| spectra(py, e)).collect())
 }
 

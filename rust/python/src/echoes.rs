@@ -110,9 +110,10 @@ pub(crate) fn simulate_py<'py>(
     let method = method_from(method, tol)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let poses_len = poses.len();
-    let out = py
-        .detach(move || simulate::simulate(&sc, &so, &poses, impulse, search, method))
-        .map_err(to_py)?;
+    let out = crate::pool::released(py, move || {
+        simulate::simulate(&sc, &so, &poses, impulse, search, method)
+    })
+    .map_err(to_py)?;
     let p = poses_len;
     let m = out.n_bins;
     // (p,) or (p, R): the leading axes of every array
@@ -191,20 +192,19 @@ pub(crate) fn lobe_members<'py>(
         }
         _ => {}
     }
-    let ids = py
-        .detach(move || {
-            let ids = match receiver {
-                None => lobe::members(&sc, &so, &pose, 0, search)
-                    .map(|mem| mem.iter().map(|m| m.index).collect::<Vec<u32>>()),
-                Some(k) => simulate::receivers::heard_members(&sc, &so, &pose, search, k),
-            };
-            ids.map(|ids| {
-                let mut ids: Vec<i64> = ids.iter().map(|&i| sc.ids[i as usize] as i64).collect();
-                ids.sort_unstable();
-                ids
-            })
+    let ids = crate::pool::released(py, move || {
+        let ids = match receiver {
+            None => lobe::members(&sc, &so, &pose, 0, search)
+                .map(|mem| mem.iter().map(|m| m.index).collect::<Vec<u32>>()),
+            Some(k) => simulate::receivers::heard_members(&sc, &so, &pose, search, k),
+        };
+        ids.map(|ids| {
+            let mut ids: Vec<i64> = ids.iter().map(|&i| sc.ids[i as usize] as i64).collect();
+            ids.sort_unstable();
+            ids
         })
-        .map_err(to_py)?;
+    })
+    .map_err(to_py)?;
     Ok(ids.into_pyarray(py))
 }
 
@@ -240,33 +240,32 @@ pub(crate) fn leaf_sights<'py>(
     }
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let pose = poses[0];
-    let rows = py
-        .detach(move || {
-            lobe::members(&sc, &so, &pose, 0, Search::Bvh).map(|mem| {
-                let targets: Vec<Target> = mem
-                    .iter()
-                    .map(|m| Target::Leaf {
-                        point: sc.centers.get(m.index as usize),
-                        leaf: m.index,
-                    })
-                    .collect();
-                let sights = shade::cast(&sc, pose.position, &targets, branches_block);
-                let mut rows: Vec<(i64, u64, bool)> = mem
-                    .iter()
-                    .zip(&sights)
-                    .map(|(m, s)| {
-                        (
-                            sc.ids[m.index as usize] as i64,
-                            s.crossings as u64,
-                            s.blocked,
-                        )
-                    })
-                    .collect();
-                rows.sort_unstable_by_key(|r| r.0);
-                rows
-            })
+    let rows = crate::pool::released(py, move || {
+        lobe::members(&sc, &so, &pose, 0, Search::Bvh).map(|mem| {
+            let targets: Vec<Target> = mem
+                .iter()
+                .map(|m| Target::Leaf {
+                    point: sc.centers.get(m.index as usize),
+                    leaf: m.index,
+                })
+                .collect();
+            let sights = shade::cast(&sc, pose.position, &targets, branches_block);
+            let mut rows: Vec<(i64, u64, bool)> = mem
+                .iter()
+                .zip(&sights)
+                .map(|(m, s)| {
+                    (
+                        sc.ids[m.index as usize] as i64,
+                        s.crossings as u64,
+                        s.blocked,
+                    )
+                })
+                .collect();
+            rows.sort_unstable_by_key(|r| r.0);
+            rows
         })
-        .map_err(to_py)?;
+    })
+    .map_err(to_py)?;
     let ids: Vec<i64> = rows.iter().map(|r| r.0).collect();
     let crossings: Vec<u64> = rows.iter().map(|r| r.1).collect();
     let blocked: Vec<bool> = rows.iter().map(|r| r.2).collect();
@@ -291,8 +290,9 @@ pub(crate) fn farthest_members<'py>(
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let poses = poses_from(&positions, &forward, &up, &left)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
-    let r = py
-        .detach(move || simulate::farthest_members(&sc, &so, &poses, Search::Bvh))
-        .map_err(to_py)?;
+    let r = crate::pool::released(py, move || {
+        simulate::farthest_members(&sc, &so, &poses, Search::Bvh)
+    })
+    .map_err(to_py)?;
     Ok(r.into_pyarray(py))
 }

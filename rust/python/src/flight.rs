@@ -169,9 +169,8 @@ pub(crate) fn fly<'py>(
     let wind = rows3(&wind, "wind")?;
     let times: Vec<f64> = times.as_array().iter().copied().collect();
     let af = &airframe.inner;
-    let out = py
-        .detach(|| flight::fly(af, &y0, &refs, &wind, &times))
-        .map_err(to_py)?;
+    let out =
+        crate::pool::released(py, || flight::fly(af, &y0, &refs, &wind, &times)).map_err(to_py)?;
     Ok(states_to(py, &out))
 }
 
@@ -237,9 +236,8 @@ impl PySwarm {
             .collect();
         let wind = rows3(&wind, "wind")?;
         let swarm = &mut self.inner;
-        let path = py
-            .detach(|| swarm.step(&cmds, &wind, dt, n_steps))
-            .map_err(to_py)?;
+        let path =
+            crate::pool::released(py, || swarm.step(&cmds, &wind, dt, n_steps)).map_err(to_py)?;
         let n = cmds.len();
         let flat: Vec<f64> = path.iter().flatten().copied().collect();
         Ok(Array3::from_shape_vec((n, n_steps, 3), flat)

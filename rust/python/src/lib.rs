@@ -5,6 +5,7 @@ mod batch;
 mod echoes;
 mod flight;
 mod obj;
+mod pool;
 mod scene;
 mod sonar;
 

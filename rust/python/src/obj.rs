@@ -63,8 +63,7 @@ pub(crate) fn load_obj<'py>(
     if let Some(p) = leaf_patterns {
         opts.leaf_patterns = p;
     }
-    let mesh = py
-        .detach(move || batecho::scene::obj::load_obj(&path, &opts))
+    let mesh = crate::pool::released(py, move || batecho::scene::obj::load_obj(&path, &opts))
         .map_err(to_py)?;
     let rows = |v: Vec<V3>| -> PyResult<Bound<'py, PyAny>> {
         let n = v.len();

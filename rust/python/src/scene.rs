@@ -48,9 +48,10 @@ impl PyScene {
                 ))
             }
         };
-        let scene = py
-            .detach(move || Scene::with_branches(c, n, r, Branches::new(bs, be, br)?))
-            .map_err(to_py)?;
+        let scene = crate::pool::released(py, move || {
+            Scene::with_branches(c, n, r, Branches::new(bs, be, br)?)
+        })
+        .map_err(to_py)?;
         Ok(PyScene {
             inner: Arc::new(scene),
         })
@@ -82,7 +83,7 @@ impl PyScene {
     ) -> PyResult<Clearance<'py>> {
         let pts = rows3(&points, "points")?;
         let sc = self.inner.clone();
-        let near = py.detach(move || sc.clearance(&pts)).map_err(to_py)?;
+        let near = crate::pool::released(py, move || sc.clearance(&pts)).map_err(to_py)?;
         let d: Vec<f64> = near.iter().map(|n| n.distance).collect();
         let i: Vec<i64> = near
             .iter()
@@ -107,8 +108,7 @@ impl PyScene {
     ) -> PyResult<f64> {
         let pts = rows3(&points, "points")?;
         let sc = self.inner.clone();
-        py.detach(move || sc.min_clearance(&pts, upper))
-            .map_err(to_py)
+        crate::pool::released(py, move || sc.min_clearance(&pts, upper)).map_err(to_py)
     }
 
     /// Number of BVH nodes.
