@@ -178,6 +178,32 @@ def test_the_batch_gives_each_single_environments_results_step_by_step():
     assert loudest > batch.envs[0].floor_db + 40.0  # and echoes were heard
 
 
+def test_async_environments_hear_what_sync_environments_hear():
+    # Forked workers make their own pulse thread and worker threads: the parent's, running
+    # since the step below, are not copied into them.
+    env = EchoFlightEnv(**SMALL)
+    env.reset(seed=0)
+    env.step(np.zeros(4, np.float32))
+    kw = {**SMALL, "max_time_s": 0.5}
+    actions = np.tile(np.array([[1.0, 0.2, 0.0, 0.1]], np.float32), (2, 1))
+    sync = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", **kw)
+    want, _ = sync.reset(seed=3)
+    forked = gym.make_vec(
+        ENV_ID, num_envs=2, vectorization_mode="async", vector_kwargs={"context": "fork"}, **kw
+    )
+    # (waits that time out, so that a hung worker fails the test instead of hanging it)
+    forked.reset_async(seed=3)
+    got, _ = forked.reset_wait(timeout=120)
+    for _ in range(3):
+        assert got["echoes"].tobytes() == want["echoes"].tobytes()
+        want = sync.step(actions)[0]
+        forked.step_async(actions)
+        got = forked.step_wait(timeout=120)[0]
+    assert got["echoes"].tobytes() == want["echoes"].tobytes()
+    sync.close()
+    forked.close()
+
+
 def test_the_batch_refuses_actions_of_the_wrong_shape():
     batch = EchoFlightVectorEnv(2, **{**SMALL, "density": 0.0})
     batch.reset(seed=0)

@@ -62,7 +62,13 @@ from ..forest.forest import Forest
 from ..forest.scene import Scene
 from ..sonar.shading import Shading
 from ..sonar.sonar import Sonar
-from .pulses import ENVELOPE_OVERSAMPLING, EchoBins, echo_levels, echo_levels_db
+from .pulses import (
+    ENVELOPE_OVERSAMPLING,
+    EchoBins,
+    echo_levels,
+    echo_levels_db,
+    start_echo_levels,
+)
 
 __all__ = [
     "CLEARANCE_HORIZON_M",
@@ -383,8 +389,10 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self._state = self.sim.step(
             velocity, yaw_rate, dt=self.dt, n_steps=self.n_substeps
         ).vectors[0]
+        # the pulse runs in Rust while the clearance, reward and ends are found here
+        pulse = start_echo_levels([self])
         ends = self.after_flight(action, before, self.sim.path[0])
-        self._echo_db = self._pulse()
+        self._echo_db = pulse()[0]
         return self._observation(), *ends
 
     def after_flight(

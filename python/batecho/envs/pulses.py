@@ -8,7 +8,9 @@ single environment's observation bit for bit.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -16,7 +18,13 @@ import numpy as np
 from .. import _core
 from ..echoes.envelope import band_envelope
 
-__all__ = ["ENVELOPE_OVERSAMPLING", "EchoBins", "echo_levels", "echo_levels_db"]
+__all__ = [
+    "ENVELOPE_OVERSAMPLING",
+    "EchoBins",
+    "echo_levels",
+    "echo_levels_db",
+    "start_echo_levels",
+]
 
 #: The envelope is sampled this many times finer than its Nyquist rate (its spectrum spans the
 #: band, ``f_hi - f_lo``) before each range bin takes its largest sample.
@@ -79,6 +87,13 @@ def echo_levels(envs: Sequence[Any]) -> list[np.ndarray]:
     from its drone's pose in its forest, all the environments' pulses in one Rust call (one
     per distinct sonar, method and tolerance). An environment without trees hears nothing
     (``floor_db`` everywhere)."""
+    return start_echo_levels(envs)()
+
+
+def start_echo_levels(envs: Sequence[Any]) -> Callable[[], list[np.ndarray]]:
+    """Send the pulses of :func:`echo_levels` to the Rust core on a worker thread (which
+    releases the GIL), so that the caller's Python work overlaps them; the returned function
+    waits for them and gives what :func:`echo_levels` gives."""
     out: list[np.ndarray] = [np.full((2, e.n_range_bins), e.floor_db) for e in envs]
     groups: list[tuple[Any, list[int]]] = []
     for i, e in enumerate(envs):
@@ -91,29 +106,50 @@ def echo_levels(envs: Sequence[Any]) -> list[np.ndarray]:
                 break
         else:
             groups.append((key, [i]))
+    calls = []
     for (sonar, method, tol), members in groups:
-        first = envs[members[0]]
         positions, attitudes = [], []
         for i in members:
             st = envs[i].drone_state()
             positions.append(st[0:3][None, :].copy())
             attitudes.append(st[6:15].reshape(1, 3, 3))
         frames = [ear_frames(a) for a in attitudes]
-        results = _core.simulate_many(
-            [envs[i].echo_scene()._core for i in members],
-            sonar._core,
-            positions,
-            [f[0] for f in frames],
-            [f[1] for f in frames],
-            [f[2] for f in frames],
-            "bvh",
-            method,
-            tol,
+        calls.append(
+            (
+                [envs[i].echo_scene()._core for i in members],
+                sonar._core,
+                positions,
+                [f[0] for f in frames],
+                [f[1] for f in frames],
+                [f[2] for f in frames],
+                "bvh",
+                method,
+                tol,
+            )
         )
-        k0 = round(float(sonar.freqs[0]) * int(sonar.n_samples) / sonar.fs)
-        # (the group's envelopes in one inverse FFT: each row's is the one it gets alone)
-        spectra = np.stack([spectrum[0] for spectrum, _ in results])
-        envelopes = band_envelope(spectra, k0, int(sonar.n_samples), first.envelope_stride)
-        for i, envelope in zip(members, envelopes, strict=True):
-            out[i] = envs[i].echo_bins.levels(envelope)
-    return out
+    pending = _worker().submit(lambda: [_core.simulate_many(*args) for args in calls])
+
+    def finish() -> list[np.ndarray]:
+        for ((sonar, _, _), members), results in zip(groups, pending.result(), strict=True):
+            first = envs[members[0]]
+            k0 = round(float(sonar.freqs[0]) * int(sonar.n_samples) / sonar.fs)
+            # (the group's envelopes in one inverse FFT: each row's is the one it gets alone)
+            spectra = np.stack([spectrum[0] for spectrum, _ in results])
+            envelopes = band_envelope(spectra, k0, int(sonar.n_samples), first.envelope_stride)
+            for i, envelope in zip(members, envelopes, strict=True):
+                out[i] = envs[i].echo_bins.levels(envelope)
+        return out
+
+    return finish
+
+
+_WORKER: tuple[int, ThreadPoolExecutor] | None = None
+
+
+def _worker() -> ThreadPoolExecutor:
+    """The one thread that sends pulses, made in this process (a forked child, as in
+    Gymnasium's async vector environments, makes its own: threads do not survive a fork)."""
+    global _WORKER
+    if _WORKER is None or _WORKER[0] != os.getpid():
+        _WORKER = (os.getpid(), ThreadPoolExecutor(1, thread_name_prefix="batecho-pulses"))
+    return _WORKER[1]

@@ -17,7 +17,7 @@ from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
 from ..flight.sim import QuadrotorSim
 from .echo_flight import EchoFlightEnv
-from .pulses import echo_levels
+from .pulses import start_echo_levels
 
 __all__ = ["EchoFlightVectorEnv"]
 
@@ -104,13 +104,15 @@ class EchoFlightVectorEnv(VectorEnv):
             assert self.sim is not None
             paths = self.sim.path
             for k, i in enumerate(flying):
-                env = self.envs[i]
-                env._state = states[k]
-                rewards[i], terminated[i], truncated[i], info = env.after_flight(
+                self.envs[i]._state = states[k]
+            # the pulses run in Rust while the clearances, rewards and ends are found here
+            pulses = start_echo_levels([self.envs[i] for i in flying])
+            for k, i in enumerate(flying):
+                rewards[i], terminated[i], truncated[i], info = self.envs[i].after_flight(
                     a[i], before[k], paths[k]
                 )
                 infos = self._add_info(infos, info, i)
-            levels = echo_levels([self.envs[i] for i in flying])
+            levels = pulses()
             for i, db in zip(flying, levels, strict=True):
                 self.envs[i]._echo_db = db
                 observations[i] = self.envs[i]._observation()
