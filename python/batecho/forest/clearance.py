@@ -128,7 +128,7 @@ class BarkGrid:
     def __len__(self) -> int:
         return len(self.tri)
 
-    def _filed(self, lo: np.ndarray, hi: np.ndarray) -> slice | list[slice]:
+    def _filed(self, lo: np.ndarray, hi: np.ndarray) -> list[slice]:
         """The slices of the filed items (``items``, ``items_lo``, ``items_hi``) of the cells the
         box ``lo``..``hi`` (x, y) overlaps, one per column of cells (a triangle filed in several
         of them comes more than once)."""
