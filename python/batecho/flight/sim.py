@@ -100,6 +100,20 @@ class QuadrotorSim:
         self.time = 0.0
         self.path = readonly(np.empty((len(rows), 0, 3)))
 
+    def __getstate__(self) -> dict[str, Any]:
+        # The Rust swarm does not pickle; it holds nothing but the airframe and the states.
+        return {
+            "quadrotor": self.quadrotor,
+            "states": np.array(self._swarm.states),
+            "time": self.time,
+            "path": self.path,
+        }
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(state["quadrotor"], state["states"])  # type: ignore[misc]
+        self.time = state["time"]
+        self.path = readonly(np.array(state["path"]))
+
     @property
     def n_drones(self) -> int:
         return self._swarm.n_drones

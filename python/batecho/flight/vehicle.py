@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .._pickle import MadeAgainOnLoading
 from .._resources import SlowWarning, check_memory
 from .._validate import finite, positive_scalar, readonly, real_array, vectors
 from ._so3 import E3, cross3, hat, orthonormalise, triple
@@ -135,7 +136,7 @@ class QuadState:
 
 
 @dataclass(frozen=True, eq=False)
-class Quadrotor:
+class Quadrotor(MadeAgainOnLoading):
     """Physical parameters of a quadrotor and its controller gains.
 
     ``mass`` kg; ``inertia`` (Jxx, Jyy, Jzz) kg m^2 (diagonal); ``arm_length`` m (centre to

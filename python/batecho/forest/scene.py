@@ -48,6 +48,10 @@ class Scene:
             None if br is None else br.radii,
         )
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Pickled as its leaves and branches; the BVHs are built again on loading.
+        return (Scene, (self._leaves, self._branches))
+
     @classmethod
     def from_arrays(cls, centers: Any, normals: Any, radii: Any) -> Scene:
         return cls(Leaves(centers, normals, radii))

@@ -8,7 +8,6 @@ frequencies in Hz, times in s.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -16,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .._pickle import MadeAgainOnLoading
 from .._validate import finite_scalar, integer, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
@@ -40,7 +40,7 @@ DEFAULT_BEAMWIDTH_DEG = 30.0
 
 
 @dataclass(frozen=True)
-class Sonar:
+class Sonar(MadeAgainOnLoading):
     """Every parameter of the echo model (docs/model.md), with its defaults.
 
     Beam: ``beamwidth_deg`` (full -3 dB width, default 30) or a :class:`Beam` as ``beam`` for
@@ -284,15 +284,22 @@ class Sonar:
         the whole band, as the authors did)."""
         return cls(beamwidth_deg=horseshoe_bat_beamwidth_deg(f_khz), **kwargs)
 
+    def _init_parameters(self) -> dict[str, Any]:
+        """The keyword arguments that make this sonar again (for ``replace`` and pickling;
+        the beam as ``beamwidth_deg`` when it was given so)."""
+        params = super()._init_parameters()
+        if params["beamwidth_deg"] is not None:
+            params["beam"] = None  # the beam was derived from beamwidth_deg
+        return params
+
     def replace(self, **changes) -> Sonar:
         """A copy with some parameters changed."""
+        params = self._init_parameters()
         if "beamwidth_deg" in changes:
-            changes.setdefault("beam", None)
+            params["beam"] = None
         elif "beam" in changes:
-            changes.setdefault("beamwidth_deg", None)
-        elif self.beamwidth_deg is not None:
-            changes["beam"] = None  # the beam was derived from beamwidth_deg
-        return dataclasses.replace(self, **changes)
+            params["beamwidth_deg"] = None
+        return type(self)(**{**params, **changes})
 
     # n_samples = "auto" ---------------------------------------------------------------------
     @property

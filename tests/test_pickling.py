@@ -1,0 +1,121 @@
+"""Objects that hold Rust state pickle (for processes, Dask workers and ``copy.deepcopy``): a
+loaded copy gives the original's results bit for bit."""
+
+from __future__ import annotations
+
+import copy
+import multiprocessing
+import pickle
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+import batecho
+from batecho import trajectories
+from batecho.flight.sim import QuadrotorSim
+
+
+def _roundtrip(obj):
+    return pickle.loads(pickle.dumps(obj))
+
+
+def _wooded_scene() -> batecho.Scene:
+    rng = np.random.default_rng(11)
+    n = 400
+    centers = np.column_stack(
+        [rng.uniform(1.5, 6, n), rng.uniform(-1.5, 1.5, n), rng.uniform(-1.5, 1.5, n)]
+    )
+    leaves = batecho.Leaves(centers, rng.normal(size=(n, 3)), rng.uniform(0.01, 0.03, n))
+    trunk = batecho.Branches([[4.0, 0.3, -2.0]], [[4.0, 0.3, 2.0]], [0.12])
+    return batecho.Scene(leaves, branches=trunk)
+
+
+POSES = batecho.Poses([[0.0, 0.0, 0.0], [0.2, 0.1, 0.0]], [[1.0, 0.0, 0.0], [1.0, 0.1, 0.05]])
+
+SONARS = {
+    "default": batecho.Sonar(),
+    "beamwidth": batecho.Sonar(beamwidth_deg=40.0, too_close="skip"),
+    "beam": batecho.Sonar(beam=batecho.Beam(sigma_deg=(12.0, 8.0), rotation_deg=10.0)),
+    "ears, shading": batecho.Sonar.binaural(
+        0.02, 25.0, shading=batecho.Shading(leaf_transmission=0.5)
+    ),
+    "auto record": batecho.Sonar(n_samples="auto", absorption=batecho.Atmosphere()),
+}
+
+
+@pytest.mark.parametrize("name", list(SONARS))
+def test_a_loaded_sonar_equals_the_original(name):
+    sonar = SONARS[name]
+    assert _roundtrip(sonar) == sonar
+    assert copy.deepcopy(sonar) == sonar
+
+
+def test_a_loaded_sonar_is_changed_by_replace_as_the_original_is():
+    sonar = batecho.Sonar(beamwidth_deg=40.0)
+    loaded = _roundtrip(sonar)
+    assert loaded.replace(beamwidth_deg=20.0) == sonar.replace(beamwidth_deg=20.0)
+    assert loaded.replace(gain=0.3).beam == sonar.beam
+
+
+@pytest.mark.parametrize("name", list(SONARS))
+def test_a_loaded_scene_and_sonar_give_the_originals_echoes_bit_for_bit(name):
+    scene, sonar = _wooded_scene(), SONARS[name]
+    want = batecho.simulate(scene, sonar, POSES, tol=1e-6, min_clearance_m=0)
+    got = batecho.simulate(_roundtrip(scene), _roundtrip(sonar), POSES, tol=1e-6, min_clearance_m=0)
+    assert np.array_equal(got.spectrum, want.spectrum)
+    assert np.array_equal(got.impulse, want.impulse)
+    assert got.wood_spectrum is not None and want.wood_spectrum is not None
+    assert np.array_equal(got.wood_spectrum, want.wood_spectrum)
+    assert np.array_equal(np.asarray(got.n_shaded), np.asarray(want.n_shaded))
+
+
+def test_a_loaded_scene_keeps_its_leaves_and_branches():
+    scene = _wooded_scene()
+    loaded = _roundtrip(scene)
+    assert loaded.leaves is not None and scene.leaves is not None
+    assert np.array_equal(loaded.leaves.centers, scene.leaves.centers)
+    assert loaded.branches is not None and scene.branches is not None
+    assert np.array_equal(loaded.branches.radii, scene.branches.radii)
+    wood_alone = _roundtrip(batecho.Scene(None, branches=scene.branches))
+    assert wood_alone.leaves is None and wood_alone.n_branches == 1
+
+
+def test_loaded_echoes_keep_their_arrays_and_sonar():
+    echoes = batecho.simulate(_wooded_scene(), SONARS["ears, shading"], POSES, min_clearance_m=0)
+    loaded = _roundtrip(echoes)
+    assert np.array_equal(loaded.impulse, echoes.impulse)
+    assert loaded.sonar == echoes.sonar
+
+
+def test_a_loaded_quadrotor_flies_the_originals_flight():
+    drone = batecho.Quadrotor.crazyflie()
+    path = trajectories.Circle((0.0, 0.0), 2.0, altitude=3.0, speed=2.0)
+    want = drone.fly(path, duration=1.0)
+    got = _roundtrip(drone).fly(path, duration=1.0)
+    assert np.array_equal(got.positions, want.positions)
+
+
+def test_a_loaded_step_by_step_flight_goes_on_where_the_original_stopped():
+    drone = batecho.Quadrotor.crazyflie()
+    sim = QuadrotorSim(drone, drone.initial_state(trajectories.Hover([0, 0, 1.0])), n_drones=3)
+    sim.step([1.0, 0.0, 0.2], 0.3, n_steps=40)
+    loaded = _roundtrip(sim)
+    assert loaded.time == sim.time
+    assert np.array_equal(loaded.path, sim.path)
+    a = sim.step([0.5, 0.5, 0.0], -0.2, n_steps=40)
+    b = loaded.step([0.5, 0.5, 0.0], -0.2, n_steps=40)
+    assert np.array_equal(a.vectors, b.vectors)
+
+
+def _echo_in_worker(args):
+    scene, sonar, poses = args
+    return batecho.simulate(scene, sonar, poses, tol=1e-6, min_clearance_m=0).impulse
+
+
+def test_a_spawned_process_pool_simulates_what_this_process_does():
+    scene, sonar = _wooded_scene(), SONARS["ears, shading"]
+    want = batecho.simulate(scene, sonar, POSES, tol=1e-6, min_clearance_m=0).impulse
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        got = pool.submit(_echo_in_worker, (scene, sonar, POSES)).result(timeout=300)
+    assert np.array_equal(got, want)
