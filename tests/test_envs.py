@@ -3,7 +3,9 @@ collisions and goals that end them, finite observations, and the baselines."""
 
 from __future__ import annotations
 
+import copy
 import math
+import pickle
 
 import gymnasium as gym
 import numpy as np
@@ -69,6 +71,20 @@ def test_seeded_episodes_are_reproducible_step_by_step():
         for key in a[0]:
             assert np.array_equal(a[0][key], b[0][key])
         assert a[1:] == b[1:]
+
+
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_a_copied_environment_steps_as_the_original(how):
+    env = EchoFlightEnv(**SMALL)
+    env.reset(seed=5)
+    action = np.array([1.0, 0.2, 0.0, 0.3], np.float32)
+    env.step(action)
+    twin = pickle.loads(pickle.dumps(env)) if how == "pickle" else copy.deepcopy(env)
+    for _ in range(3):
+        a, b = env.step(action), twin.step(action)
+        for key in a[0]:
+            assert np.array_equal(a[0][key], b[0][key])
+        assert a[1:4] == b[1:4]
 
 
 def test_different_seeds_draw_different_forests():

@@ -6,6 +6,8 @@ each single environment's results step by step."""
 
 from __future__ import annotations
 
+import copy
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -209,3 +211,17 @@ def test_the_batch_refuses_actions_of_the_wrong_shape():
     batch.reset(seed=0)
     with pytest.raises(ValueError, match="actions"):
         batch.step(np.zeros((3, 4)))
+
+
+def test_a_copied_native_batch_steps_as_the_original():
+    envs = EchoFlightVectorEnv(2, **SMALL)
+    envs.reset(seed=[3, 4])
+    actions = np.array([[1.0, 0.1, 0.0, 0.2], [0.8, -0.3, 0.1, 0.0]], np.float32)
+    envs.step(actions)
+    twin = copy.deepcopy(envs)
+    for _ in range(3):
+        a, b = envs.step(actions), twin.step(actions)
+        for key in a[0]:
+            assert np.array_equal(a[0][key], b[0][key])
+        for x, y in zip(a[1:4], b[1:4], strict=True):
+            assert np.array_equal(x, y)
