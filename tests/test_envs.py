@@ -208,6 +208,7 @@ def test_sync_vector_envs_step_together():
         ({"density": -1.0}, "density"),
         ({"length_m": float("nan")}, "length_m"),
         ({"n_range_bins": 0}, "n_range_bins"),
+        ({"n_range_bins": 10**12}, "n_range_bins must be at most"),
         ({"pulse_rate_hz": 30.0}, "pulse interval"),
         ({"ceiling_m": 1.0}, "ceiling_m"),
         ({"render_mode": "human"}, "render_mode"),

@@ -287,6 +287,13 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             n, self.sonar.fs, self.sonar.band_hz, ENVELOPE_OVERSAMPLING
         )
         times = np.arange(0, n, self.envelope_stride) / self.sonar.fs
+        heard = int(np.count_nonzero(self.sonar.sound_speed * times / 2.0 < self.reach_m))
+        if self.n_range_bins > heard:
+            raise ValueError(
+                f"n_range_bins must be at most {heard}, the envelope's samples within the "
+                f"sonar's reach of {self.reach_m:.3g} m (more bins would stay empty), got "
+                f"{n_range_bins!r}"
+            )
         self.echo_bins = EchoBins(
             self.sonar.sound_speed * times / 2.0,
             self.reach_m,
