@@ -19,7 +19,8 @@ class MadeAgainOnLoading:
 
     def _init_parameters(self) -> dict[str, Any]:
         """The keyword arguments that make this object again."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}  # type: ignore[arg-type]
+        fields = dataclasses.fields(self)  # type: ignore[arg-type]
+        return {f.name: getattr(self, f.name) for f in fields if f.init}
 
     def __reduce__(self) -> tuple[Any, ...]:
         return (remake, (type(self), self._init_parameters()))

@@ -50,7 +50,7 @@ class Scene:
 
     def __reduce__(self) -> tuple[Any, ...]:
         # Pickled as its leaves and branches; the BVHs are built again on loading.
-        return (Scene, (self._leaves, self._branches))
+        return (type(self), (self._leaves, self._branches))
 
     @classmethod
     def from_arrays(cls, centers: Any, normals: Any, radii: Any) -> Scene:
