@@ -22,6 +22,7 @@ from batecho.forest.ipp import (
     IPPWarning,
     RasterIntensity,
     SquaredExponentialMixture,
+    UniformIntensity,
     estimate_lambda_max,
     integrate_intensity,
     paper_intensity,
@@ -144,6 +145,25 @@ def test_quadrat_counts_match_exponential_intensity(draws):
 
 
 # ------------------------------------------------------------------ reproducibility
+
+
+def test_a_uniform_intensity_is_its_density_everywhere_in_the_broadcast_shape():
+    lam = UniformIntensity(0.05)
+    got = lam(np.zeros((3, 1)), np.arange(4.0))
+    assert got.shape == (3, 4)
+    assert np.all(got == 0.05)
+
+
+def test_a_uniform_intensity_draws_what_the_same_constant_function_draws():
+    a = sample_ipp(UniformIntensity(0.05), PAPER_WINDOW, np.random.default_rng(4))
+    b = sample_ipp(lambda x, y: 0.05, PAPER_WINDOW, np.random.default_rng(4))
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("density", [-0.1, float("nan"), float("inf")])
+def test_a_uniform_intensity_refuses_a_density_that_is_not_finite_and_nonnegative(density):
+    with pytest.raises(ValueError, match="density"):
+        UniformIntensity(density)
 
 
 def test_same_seed_gives_identical_points():

@@ -81,6 +81,15 @@ def test_a_loaded_scene_keeps_its_leaves_and_branches():
     assert wood_alone.leaves is None and wood_alone.n_branches == 1
 
 
+def test_a_loaded_forest_drawn_with_a_uniform_intensity_keeps_its_trees():
+    forest = batecho.Forest.from_ipp(
+        batecho.UniformIntensity(0.05), (0.0, 20.0, 0.0, 20.0), 3, variants=1
+    )
+    loaded = _roundtrip(forest)
+    assert np.array_equal(loaded.positions, forest.positions)
+    assert loaded.n_leaves == forest.n_leaves
+
+
 def test_loaded_echoes_keep_their_arrays_and_sonar():
     echoes = batecho.simulate(_wooded_scene(), SONARS["ears, shading"], POSES, min_clearance_m=0)
     loaded = _roundtrip(echoes)

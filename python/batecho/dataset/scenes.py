@@ -115,10 +115,10 @@ def _leaf_box_labels(spec: DatasetSpec) -> tuple[str, ...]:
 
 
 def _forest_intensity(spec: DatasetSpec, scale: float) -> Any:
-    from ..forest.ipp import SquaredExponentialMixture, paper_intensity
+    from ..forest.ipp import SquaredExponentialMixture, UniformIntensity, paper_intensity
 
     if spec.scene.forest.intensity == "homogeneous":
-        return lambda x, y: np.full(np.broadcast(x, y).shape, scale)
+        return UniformIntensity(scale)
     p = paper_intensity()
     return SquaredExponentialMixture(p.centers, p.length_scales, p.weights * scale)
 

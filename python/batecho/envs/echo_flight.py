@@ -46,7 +46,6 @@ goal (``info["is_success"]``), and is truncated after ``max_time_s``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -60,6 +59,7 @@ from ..flight.sim import QuadrotorSim
 from ..flight.trajectories import Hover
 from ..flight.vehicle import Quadrotor
 from ..forest.forest import Forest
+from ..forest.ipp import UniformIntensity
 from ..forest.scene import Scene
 from ..sonar.shading import Shading
 from ..sonar.sonar import Sonar
@@ -135,17 +135,6 @@ def _euler_zyx(R: np.ndarray) -> np.ndarray:
 
 def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
-@dataclass(frozen=True)
-class _UniformIntensity:
-    """The forest's IPP intensity: ``density`` trees/m^2 everywhere (a class, not a closure,
-    so that the environment pickles)."""
-
-    density: float
-
-    def __call__(self, x: Any, y: Any) -> np.ndarray:
-        return np.full(np.shape(x), self.density)
 
 
 class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
@@ -338,7 +327,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         need = 2.0 * self.drone_radius_m + 0.5
         ends = np.array([self.start, self.goal])
         density = self.density
-        intensity = _UniformIntensity(density)
+        intensity = UniformIntensity(density)
         for _ in range(_MAX_DRAWS):
             seed = int(self.np_random.integers(2**63))
             if seed in self._forests:  # the same seed's forest as an earlier episode's

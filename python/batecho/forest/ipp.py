@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import finite, integer, real_array
+from .._validate import finite, integer, positive_scalar, real_array
 
 __all__ = [
     "DEFAULT_GRID",
@@ -29,6 +29,7 @@ __all__ = [
     "IPPWarning",
     "RasterIntensity",
     "SquaredExponentialMixture",
+    "UniformIntensity",
     "draw_tree_positions",
     "estimate_lambda_max",
     "integrate_intensity",
@@ -160,6 +161,23 @@ def _evaluate(intensity: Any, x: np.ndarray, y: np.ndarray) -> np.ndarray:
             f"({x.ravel()[i]:.6g}, {y.ravel()[i]:.6g}) m it is {float(lam.ravel()[i])!r}"
         )
     return lam
+
+
+@dataclass(frozen=True)
+class UniformIntensity:
+    """The same intensity everywhere, ``density`` points per m^2 (finite, >= 0): a homogeneous
+    Poisson process. Unlike ``lambda x, y: density``, it pickles, and so does a forest drawn
+    with it."""
+
+    density: float
+
+    def __post_init__(self):
+        d = positive_scalar(self.density, "density", allow_zero=True, strict=True, unit="per m^2")
+        object.__setattr__(self, "density", d)
+
+    def __call__(self, x: Any, y: Any) -> np.ndarray:
+        """``density`` at (x, y) (m), in the broadcast shape of ``x`` and ``y``."""
+        return np.full(np.broadcast(x, y).shape, self.density)
 
 
 class RasterIntensity:
@@ -490,7 +508,8 @@ def sample_ipp(
     ----------
     intensity : callable or RasterIntensity
         Vectorised ``f(x, y)`` on NumPy arrays (m) returning points per m^2, >= 0 and finite;
-        a scalar return value is broadcast (``lambda x, y: 0.05`` is a homogeneous process).
+        a scalar return value is broadcast (``lambda x, y: 0.05`` is a homogeneous process, as is
+        ``UniformIntensity(0.05)``, which pickles).
     window : (xmin, xmax, ymin, ymax) or array_like (k, 2)
         A rectangle, or the vertices of a simple polygon (either orientation), m.
     rng : numpy.random.Generator
