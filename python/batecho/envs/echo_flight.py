@@ -276,7 +276,8 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             n, self.sonar.fs, self.sonar.band_hz, ENVELOPE_OVERSAMPLING
         )
         times = np.arange(0, n, self.envelope_stride) / self.sonar.fs
-        heard = int(np.count_nonzero(self.sonar.sound_speed * times / 2.0 < self.reach_m))
+        ranges = self.sonar.sound_speed * times / 2.0
+        heard = int(np.count_nonzero(ranges < self.reach_m))
         if self.n_range_bins > heard:
             raise ValueError(
                 f"n_range_bins must be at most {heard}, the envelope's samples within the "
@@ -284,7 +285,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
                 f"{n_range_bins!r}"
             )
         self.echo_bins = EchoBins(
-            self.sonar.sound_speed * times / 2.0,
+            ranges,
             self.reach_m,
             self.n_range_bins,
             self.floor_db,
