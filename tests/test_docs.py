@@ -88,3 +88,29 @@ def test_nothing_in_the_repository_refers_to_a_path_outside_it():
         text = path.read_text(encoding="utf-8", errors="replace")
         bad += [f"{name}: {m.group(0)}" for m in outside.finditer(text)]
     assert not bad, bad
+
+
+def extras_table(path: Path) -> set[str]:
+    """The extras named in the first column of a document's ``| extra | ...`` table."""
+    text = path.read_text(encoding="utf-8")
+    table = re.search(r"^\| extra \|.*?\n((?:\|.*\n)+)", text, re.M)
+    assert table, f"{path.name} has no extras table"
+    return set(re.findall(r"^\| `([\w-]+)` \|", table.group(1), re.M))
+
+
+@pytest.mark.parametrize(
+    "doc", [README, ROOT / "docs" / "guide" / "install.md"], ids=lambda p: p.name
+)
+def test_the_extras_table_names_every_extra_the_package_declares(doc):
+    import tomllib
+
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"][
+        "optional-dependencies"
+    ]
+    assert extras_table(doc) == set(declared)
+
+
+def test_the_readme_links_every_guide():
+    text = README.read_text(encoding="utf-8")
+    linked = {(ROOT / target).resolve() for target in LINK.findall(text)}
+    assert not [p.name for p in GUIDES if p.resolve() not in linked and p.name != "index.md"]
