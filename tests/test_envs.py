@@ -212,11 +212,27 @@ def test_sync_vector_envs_step_together():
         ({"pulse_rate_hz": 30.0}, "pulse interval"),
         ({"ceiling_m": 1.0}, "ceiling_m"),
         ({"render_mode": "human"}, "render_mode"),
+        ({"ceiling_m": float("nan")}, "ceiling_m"),
+        ({"ceiling_m": float("inf")}, "ceiling_m"),
+        ({"effort_weight": float("nan")}, "effort_weight"),
+        ({"collision_penalty": float("inf")}, "collision_penalty"),
+        ({"success_reward": -1.0}, "success_reward"),
+        ({"altitude_m": 0.1, "drone_radius_m": 0.15}, "altitude_m"),
+        ({"width_m": 0.2, "drone_radius_m": 0.15}, "width_m"),
+        ({"goal_radius_m": 30.0}, "goal_radius_m"),
+        ({"variants": 2.5}, "variants"),
+        ({"method": "bogus"}, "method"),
+        ({"tol": -1.0}, "tol"),
     ],
 )
 def test_impossible_parameters_are_refused_by_name(kwargs, word):
     with pytest.raises(ValueError, match=word):
         EchoFlightEnv(**kwargs)
+
+
+def test_a_quadrotor_that_is_not_one_is_refused_by_name():
+    with pytest.raises(TypeError, match="quadrotor"):
+        EchoFlightEnv(quadrotor="crazyflie")
 
 
 def test_the_drone_hears_with_two_ears_and_the_trees_echo_with_their_wood_by_default():
@@ -266,3 +282,10 @@ def test_a_nan_action_is_refused():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action"):
         env.step(np.array([np.nan, 0, 0, 0]))
+
+
+def test_an_action_of_the_wrong_shape_is_refused_by_name():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.zeros((1, 4)))

@@ -178,6 +178,20 @@ class Echoes:
         return to_mat(self, path, call, received)
 
 
+def method_and_tol(method: Any, tol: Any) -> tuple[str, float]:
+    """``method`` (one of :data:`METHODS`) and ``tol`` (a number in (0, 1)) as
+    :func:`simulate` takes them, or a clear error."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    try:
+        t = float(tol)
+    except (TypeError, ValueError):
+        raise TypeError(f"tol must be a number, got {tol!r}") from None
+    if not (0.0 < t < 1.0):
+        raise ValueError(f"tol must be in (0, 1), got {tol!r}")
+    return method, t
+
+
 def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
     if not isinstance(sonar, Sonar):
         raise TypeError(f"sonar must be a batecho.Sonar, got {type(sonar).__name__}")
@@ -236,14 +250,7 @@ def simulate(
     """
     sonar, poses = _check(sonar, poses)
     margin = check_margin(min_clearance_m)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    try:
-        tol = float(tol)
-    except (TypeError, ValueError):
-        raise TypeError(f"tol must be a number, got {tol!r}") from None
-    if not (0.0 < tol < 1.0):
-        raise ValueError(f"tol must be in (0, 1), got {tol!r}")
+    method, tol = method_and_tol(method, tol)
     sc = as_scene(scene)
     warn_low_clearance(sc, poses, margin, stacklevel=2)
     if sonar.is_auto:

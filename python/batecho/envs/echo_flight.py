@@ -52,7 +52,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from .._validate import integer
 from ..echoes.envelope import envelope_stride
+from ..echoes.simulate import method_and_tol
 from ..flight.mount import SonarMount
 from ..flight.poses import Poses
 from ..flight.sim import QuadrotorSim
@@ -147,6 +149,11 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     :class:`~batecho.Quadrotor` (default :meth:`~batecho.Quadrotor.crazyflie`);
     ``tree_params``: keyword arguments of :func:`~batecho.grow_tree`; ``variants``: distinct
     trees grown per forest (each placed tree one of them, turned and scaled).
+
+    Parameters that would end an episode before it starts are refused: the drone must start
+    above the ground (``altitude_m > drone_radius_m``), fit in the corridor
+    (``width_m > 2 drone_radius_m``) and start outside the goal (``goal_radius_m <
+    length_m``); the reward's weights are finite and >= 0.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}  # noqa: RUF012 (gymnasium's attribute)
@@ -201,12 +208,44 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         ):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        for name, value in (
+            ("effort_weight", effort_weight),
+            ("collision_penalty", collision_penalty),
+            ("success_reward", success_reward),
+        ):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if not (math.isfinite(density) and density >= 0):
             raise ValueError(f"density must be a finite number >= 0 (trees/m^2), got {density!r}")
         if not 0 <= trees_from_m < length_m / 2:
             raise ValueError(f"trees_from_m must be in [0, length_m/2), got {trees_from_m!r}")
-        if ceiling_m <= altitude_m:
+        if not (isinstance(ceiling_m, (int, float)) and ceiling_m > altitude_m):
             raise ValueError(f"ceiling_m ({ceiling_m}) must be above altitude_m ({altitude_m})")
+        if not math.isfinite(ceiling_m):
+            raise ValueError(f"ceiling_m must be finite, got {ceiling_m!r}")
+        # (an episode that ends before it starts: the drone on the ground, wider than the
+        # corridor, or starting in the goal)
+        if not altitude_m > drone_radius_m:
+            raise ValueError(
+                f"altitude_m ({altitude_m}) must be above drone_radius_m ({drone_radius_m}): "
+                "the drone would start touching the ground"
+            )
+        if not width_m > 2.0 * drone_radius_m:
+            raise ValueError(
+                f"width_m ({width_m}) must be more than the drone's diameter, "
+                f"2 * drone_radius_m = {2.0 * drone_radius_m:g} m"
+            )
+        if not goal_radius_m < length_m:
+            raise ValueError(
+                f"goal_radius_m ({goal_radius_m}) must be less than length_m ({length_m}), the "
+                "distance from the start to the goal: the drone would start in the goal"
+            )
+        if quadrotor is not None and not isinstance(quadrotor, Quadrotor):
+            raise TypeError(
+                f"quadrotor must be None or a batecho.Quadrotor, got {type(quadrotor).__name__}"
+            )
+        variants = integer(variants, "variants", 1)
+        method, tol = method_and_tol(method, tol)
         if int(n_range_bins) != n_range_bins or n_range_bins < 1:
             raise ValueError(f"n_range_bins must be an integer >= 1, got {n_range_bins!r}")
         if not floor_db < ceiling_db:
@@ -379,9 +418,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
 
     def command(self, action: Any) -> tuple[np.ndarray, float]:
         """The world velocity (3,) m/s and yaw rate (rad/s) that ``action`` commands now."""
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        a = np.asarray(action, dtype=np.float64)
         if a.shape != (4,) or not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be 4 finite numbers, got {action!r}")
+            raise ValueError(f"action must be 4 finite numbers, shape (4,), got {action!r}")
         u = np.clip(a, -1.0, 1.0) * self.scales
         psi = _yaw(self.drone_state()[6:15].reshape(3, 3))
         c, s = math.cos(psi), math.sin(psi)
