@@ -490,7 +490,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     def drone_state(self) -> np.ndarray:
         """The drone's state now, (22,) in :meth:`~batecho.QuadState.vector`'s layout."""
         if self._state is None:
-            raise RuntimeError("call reset() before step()")
+            raise RuntimeError("call reset() first: no episode has started")
         return self._state
 
     def echo_scene(self) -> Scene:
