@@ -76,6 +76,29 @@ def test_the_matched_filter_peaks_at_a_single_leafs_delay():
     assert abs(t - 2 * 3.0 / e.sonar.sound_speed) <= 2.0 / e.sonar.fs
 
 
+def test_the_compressed_output_is_the_impulse_response_filtered_by_the_calls_autocorrelation():
+    pose = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    leaf = Leaves([[3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    e = batecho.simulate(leaf, Sonar(), pose)
+    call = Call.linear_fm(80e3, 60e3, 2e-3)
+    y, c = e.impulse[0], call.samples
+    rho = np.correlate(c, c, "full") / call.energy  # lags -(m - 1) .. m - 1, rho[0] = 1
+    want = np.convolve(y, rho)[c.size - 1 : c.size - 1 + y.size]
+    fits = y.size - c.size + 1  # where the call still fits in the record
+    z = e.compressed(call)[0]
+    assert np.max(np.abs(z[:fits] - want[:fits])) <= 1e-12 * np.max(np.abs(want))
+
+
+def test_a_single_sample_comes_out_of_the_matched_filter_at_its_amplitude():
+    from batecho.echoes.received import compressed
+
+    call = Call.linear_fm(80e3, 60e3, 2e-3)
+    y = np.zeros(4000)
+    y[1000] = 0.37
+    z = compressed(y, call.fs, call)
+    assert np.argmax(z) == 1000 and abs(z[1000] - 0.37) <= 1e-12
+
+
 def test_a_call_at_another_rate_is_refused(one_ear):
     with pytest.raises(ValueError, match="sampled at 250000 Hz"):
         one_ear.received(Call.linear_fm(80e3, 60e3, 2e-3, fs=250e3))

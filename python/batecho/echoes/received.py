@@ -45,8 +45,8 @@ def received(
 
 def matched_filter(x: np.ndarray, call: Call) -> np.ndarray:
     """The matched filter of ``call`` applied to ``x`` (..., n): the cross-correlation
-    ``z[t] = sum_tau x[t + tau] c[tau] / sum c^2``, so that an echo of the call arriving at
-    ``t0`` peaks at ``t0`` with the echo's impulse amplitude (by FFT)."""
+    ``z[t] = sum_tau x[t + tau] c[tau] / sum c^2`` (by FFT): a single sample of amplitude
+    ``A`` at ``t0``, convolved with the call, gives ``z[t0] = A`` (docs/model.md §5b)."""
     from scipy.signal import oaconvolve
 
     c = call.samples

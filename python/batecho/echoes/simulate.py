@@ -134,8 +134,11 @@ class Echoes:
 
     def compressed(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
         """(p, [R,] n_samples) the pulse-compressed output: :meth:`received` through the
-        matched filter of ``call`` (its correlation with the call over the call's energy), so
-        that an echo arriving at ``t0`` peaks at ``t0`` with the impulse response's scale."""
+        matched filter of ``call`` (its correlation with the call over the call's energy).
+        Without noise it is :attr:`impulse` filtered by the call's autocorrelation normalised
+        to 1 at lag 0 (docs/model.md §5b): an echo arriving at ``t0`` peaks at ``t0``, higher
+        than in :attr:`impulse` (a band-limited pulse summed over the autocorrelation's main
+        lobe)."""
         from .received import compressed
 
         return compressed(self.impulse, self.sonar.fs, call, noise_rms, rng)
