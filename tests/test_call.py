@@ -217,3 +217,41 @@ def test_exports_without_receivers_have_one_receiver_at_the_emitter(one_ear, tmp
     assert np.array_equal(ds["impulse"].values[:, 0], one_ear.impulse)
     assert loadmat(one_ear.to_mat(tmp_path / "e.mat"))["impulse"].shape == (1, 1, 24000)
     assert wavfile.read(one_ear.to_wav(tmp_path / "e.wav"))[1].ndim == 1
+
+
+def test_editing_the_xarray_dataset_leaves_the_echoes_and_the_given_record_alone(two_ears):
+    call = CALLS["linear_fm"]()
+    record = two_ears.received(call)
+    kept_impulse, kept_record = two_ears.impulse.copy(), record.copy()
+    ds = two_ears.to_xarray(call=call, received=record)
+    ds["impulse"] /= 2.0
+    ds["received"] /= 2.0
+    record[...] = 0.0
+    assert np.array_equal(two_ears.impulse, kept_impulse)
+    assert np.array_equal(ds["received"].values * 2.0, kept_record)
+
+
+@pytest.mark.parametrize("export", ["to_xarray", "to_mat"])
+def test_a_given_record_of_the_wrong_shape_is_refused_by_name(two_ears, export, tmp_path):
+    args = (tmp_path / "e.mat",) if export == "to_mat" else ()
+    with pytest.raises(ValueError, match="received must have the impulse responses' shape"):
+        getattr(two_ears, export)(*args, call=CALLS["linear_fm"](), received=np.zeros((3, 5)))
+    assert not (tmp_path / "e.mat").exists()
+
+
+@pytest.mark.parametrize("export", ["to_xarray", "to_mat"])
+def test_a_given_record_without_its_call_is_refused(two_ears, export, tmp_path):
+    args = (tmp_path / "e.mat",) if export == "to_mat" else ()
+    with pytest.raises(ValueError, match="pass call="):
+        getattr(two_ears, export)(*args, received=two_ears.impulse)
+
+
+@pytest.mark.parametrize("export", ["to_mat", "to_wav"])
+def test_writing_into_a_missing_folder_names_the_folder(one_ear, export, tmp_path):
+    with pytest.raises(FileNotFoundError, match="nodir"):
+        getattr(one_ear, export)(tmp_path / "nodir" / "e.out")
+
+
+def test_a_time_expansion_given_as_text_is_refused(one_ear, tmp_path):
+    with pytest.raises(TypeError, match="time_expansion"):
+        one_ear.to_wav(tmp_path / "e.wav", time_expansion="10")

@@ -178,13 +178,35 @@ def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None
         )
         ds["call"] = ("call_time", call.samples, {"units": "1", "long_name": call.name})
         ds = ds.assign_coords(call_time=("call_time", call.times, {"units": "s"}))
-    return ds
+    elif received is not None:
+        raise ValueError("received is exported with its call: pass call= too")
+    # (the Dataset owns its arrays: editing it leaves the echoes and the caller's arrays alone)
+    return ds.copy(deep=True)
 
 
-def _received(echoes: Any, call: Call, received: np.ndarray | None) -> np.ndarray:
-    """What the receivers record, with a receiver axis."""
-    rec = echoes.received(call) if received is None else np.asarray(received)
+def _received(echoes: Any, call: Call, received: Any) -> np.ndarray:
+    """What the receivers record, with a receiver axis: ``received`` (a copy, checked to be
+    finite and shaped as the impulse responses) or :meth:`Echoes.received` without noise."""
+    if received is None:
+        rec = echoes.received(call)
+    else:
+        rec = np.array(received, dtype=np.float64)
+        if rec.shape != echoes.impulse.shape:
+            raise ValueError(
+                f"received must have the impulse responses' shape {echoes.impulse.shape}, "
+                f"got {rec.shape}"
+            )
+        if not np.all(np.isfinite(rec)):
+            raise ValueError("received must be finite")
     return rec if echoes.n_receivers else rec[:, None]
+
+
+def _file_to_write(path: str | os.PathLike) -> Path:
+    """``path`` as a Path whose folder exists (FileNotFoundError naming it otherwise)."""
+    p = Path(path)
+    if not p.parent.is_dir():
+        raise FileNotFoundError(f"cannot write {p}: the folder {p.parent} does not exist")
+    return p
 
 
 def _pcm16(x: np.ndarray) -> np.ndarray:
@@ -227,14 +249,14 @@ def write_wav(path: str | os.PathLike, x: np.ndarray, fs: float, time_expansion:
 
     from .._validate import positive_scalar
 
-    te = positive_scalar(time_expansion, "time_expansion")
+    te = positive_scalar(time_expansion, "time_expansion", strict=True)
     rate = round(fs / te)
     if not 1 <= rate <= 2**31 - 1:
         raise ValueError(f"fs / time_expansion = {fs / te:g} Hz is not a WAV rate")
+    p = _file_to_write(path)
     # (pose, receiver, time) -> (pose time, receiver)
     frames = np.ascontiguousarray(np.transpose(x, (0, 2, 1)).reshape(-1, x.shape[1]))
     data = _pcm16(frames)
-    p = Path(path)
     wavfile.write(p, rate, data[:, 0] if data.shape[1] == 1 else data)
     return p
 
@@ -266,7 +288,7 @@ def to_mat(
     spec, imp, counts = with_receiver_axis(echoes)
     names, offsets = _receiver_table(echoes)
     poses = echoes.poses
-    p = Path(path)
+    p = _file_to_write(path)
     # (counts as doubles, as n_leaves: MATLAB's default class)
     extra: dict[str, Any] = {
         name: x if name == "wood_spectrum" else x.astype(np.float64)
@@ -274,6 +296,8 @@ def to_mat(
     }
     if call is not None:
         extra |= {"received": _received(echoes, call, received), "call": call.samples}
+    elif received is not None:
+        raise ValueError("received is exported with its call: pass call= too")
     savemat(
         p,
         extra
