@@ -336,3 +336,43 @@ def test_plot_scene_3d_draws_a_forests_bark():
     polys = [c for c in fig.axes[0].collections if isinstance(c, Poly3DCollection)]
     assert len(polys) == 1 and len(polys[0].get_paths()) == 300
     plt.close(fig)
+
+
+@pytest.fixture(scope="module")
+def two_ear_echoes(box, poses):
+    return batecho.simulate(box, batecho.Sonar.binaural(0.02, 30.0), poses)
+
+
+@pytest.mark.parametrize(
+    "plot",
+    [
+        plot_impulse,
+        plot_spectrum,
+        plot_spectrogram,
+        plot_echo_image,
+    ],
+    ids=lambda f: f.__name__,
+)
+def test_a_one_receiver_figure_of_two_ears_echoes_names_for_receiver(two_ear_echoes, plot):
+    with pytest.raises(ValueError, match=r"for_receiver"):
+        plot(two_ear_echoes)
+    plt.close("all")
+
+
+@pytest.mark.parametrize("plot", [plot_impulse, plot_spectrum, plot_spectrogram])
+def test_a_pose_index_out_of_range_is_refused_by_name(echoes, plot):
+    with pytest.raises(
+        ValueError, match=f"pose index 99 out of range: the echoes have {len(echoes)}"
+    ):
+        plot(echoes, 99)
+
+
+def test_the_echo_image_refuses_a_dynamic_range_that_is_not_positive(echoes):
+    with pytest.raises(ValueError, match="dynamic_range_db"):
+        plot_echo_image(echoes, dynamic_range_db=-10.0)
+
+
+def test_the_spectrogram_refuses_segments_longer_than_the_record_or_empty(echoes):
+    for nperseg in (0, 10**9):
+        with pytest.raises(ValueError, match="nperseg"):
+            plot_spectrogram(echoes, nperseg=nperseg)

@@ -56,6 +56,27 @@ def _db(x: np.ndarray, ref: float, power: bool = False) -> np.ndarray:
         return (10.0 if power else 20.0) * np.log10(np.asarray(x) / ref)
 
 
+def _one_receiver(echoes: Any, what: str) -> None:
+    """Refuse echoes with a receiver axis in a figure of one receiver's echoes, naming the
+    way to one."""
+    if echoes.n_receivers:
+        raise ValueError(
+            f"{what} draws one receiver's echoes; these have {echoes.n_receivers} receivers: "
+            "pass echoes.for_receiver(j), or draw them side by side with "
+            "batecho.outputs.binaural"
+        )
+
+
+def _pose(echoes: Any, index: Any) -> int:
+    """``index`` as a pose index of ``echoes`` (negative counts from the end)."""
+    if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+        raise TypeError(f"index must be an int pose index, got {index!r}")
+    p = len(echoes)
+    if not -p <= index < p:
+        raise ValueError(f"pose index {index} out of range: the echoes have {p} poses")
+    return int(index) % p
+
+
 # ------------------------------------------------------------------------------- echoes
 
 
@@ -99,6 +120,8 @@ def plot_impulse(
     ``legend`` (outside the axes, on the right) and ``range_axis`` (on top) can be left out,
     e.g. on the inner panels of a grid.
     """
+    _one_receiver(echoes, "plot_impulse")
+    index = _pose(echoes, index)
     plt = _plt()
     fig = None
     if ax is None:
@@ -160,6 +183,8 @@ def _impulse_handles(ax) -> tuple[list, list[str]]:
 
 def plot_spectrum(echoes, index: int = 0, ax=None):
     """Magnitude (dB) of the band spectrum of pose ``index``, frequency in kHz."""
+    _one_receiver(echoes, "plot_spectrum")
+    index = _pose(echoes, index)
     plt = _plt()
     fig = None
     if ax is None:
@@ -280,6 +305,9 @@ def plot_echo_image(
     columns. With ``wood`` and echoes of a scene with
     branches, the wood's own echo is outlined on top (:func:`overlay_wood_echoes`).
     """
+    _one_receiver(echoes, "plot_echo_image")
+    if not (isinstance(dynamic_range_db, (int, float)) and 0.0 < dynamic_range_db < math.inf):
+        raise ValueError(f"dynamic_range_db must be a finite number > 0, got {dynamic_range_db!r}")
     plt = _plt()
     fig = None
     if ax is None:
@@ -375,6 +403,13 @@ def plot_spectrogram(
     """
     from scipy.signal import spectrogram
 
+    _one_receiver(echoes, "plot_spectrogram")
+    index = _pose(echoes, index)
+    n = int(echoes.sonar.n_samples)
+    if isinstance(nperseg, bool) or not isinstance(nperseg, (int, np.integer)):
+        raise TypeError(f"nperseg must be an int, got {nperseg!r}")
+    if not 2 <= nperseg <= n:
+        raise ValueError(f"nperseg must be in [2, {n}] (the record's samples), got {nperseg}")
     plt = _plt()
     fig = None
     if ax is None:
