@@ -201,6 +201,12 @@ def test_timed_yaw_follows_the_heading_mode():
     np.testing.assert_allclose(fixed.yaw(t), math.pi / 4)
 
 
+def test_pulse_times_too_many_for_memory_are_refused_by_name(circle_flight):
+    _quad, _traj, flight = circle_flight
+    with pytest.raises(MemoryError, match="rate_hz = 1e"):
+        flight.pulse_times(1e12)
+
+
 # ---------------------------------------------------------------- attitude tilts the sonar
 
 

@@ -229,6 +229,27 @@ def test_bad_commands_raise_value_error_naming_the_problem(call, match):
     np.testing.assert_array_equal(sim.state.vectors, before)
 
 
+def test_a_step_whose_path_cannot_fit_in_memory_is_refused_before_it_starts():
+    quad = Quadrotor.crazyflie()
+    sim = QuadrotorSim(quad, quad.initial_state(Hover((0, 0, 1))))
+    before = sim.state.vectors.copy()
+    with pytest.raises(MemoryError, match="n_steps = 1000000000000"):
+        sim.step([0.0, 0.0, 0.0], n_steps=10**12)
+    np.testing.assert_array_equal(sim.state.vectors, before)
+
+
+def test_a_simulation_of_too_many_drones_for_memory_is_refused_by_name():
+    quad = Quadrotor.crazyflie()
+    with pytest.raises(MemoryError, match="n_drones = 100000000"):
+        QuadrotorSim(quad, quad.initial_state(Hover((0, 0, 1))), n_drones=10**8)
+
+
+def test_a_fractional_number_of_drones_is_refused():
+    quad = Quadrotor.crazyflie()
+    with pytest.raises(ValueError, match="n_drones"):
+        QuadrotorSim(quad, quad.initial_state(Hover((0, 0, 1))), n_drones=2.5)
+
+
 SCRIPT = textwrap.dedent(
     """
     import sys

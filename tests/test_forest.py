@@ -192,6 +192,23 @@ def test_empty_forest_has_no_scene(small_tree):
         f.scene()
 
 
+def test_an_empty_forest_is_infinitely_far_from_every_point(small_tree):
+    f = Forest.from_ipp(lambda x, y: 0.0, (0.0, 10.0, 0.0, 10.0), 0, tree=small_tree)
+    assert np.array_equal(f.clearance([[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]]), [np.inf, np.inf])
+
+
+def test_an_empty_forest_still_refuses_bad_points(small_tree):
+    f = Forest.from_ipp(lambda x, y: 0.0, (0.0, 10.0, 0.0, 10.0), 0, tree=small_tree)
+    with pytest.raises(ValueError, match="points"):
+        f.clearance([[np.nan, 0.0, 0.0]])
+
+
+@pytest.mark.parametrize("altitude", [float("nan"), float("inf")])
+def test_a_clear_circle_at_a_non_finite_altitude_is_refused(paper_forest, altitude):
+    with pytest.raises(ValueError, match="altitude"):
+        paper_forest.clear_circle_radius(paper_forest.mean_position, 6.2, altitude=altitude)
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [{"variants": 0}, {"variants": 2.5}, {"scale_sd": -1.0}, {"scale_sd": float("nan")}],

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import BYTES_PER_POSE, check_memory
 from .._validate import finite, finite_scalar, positive_scalar, readonly, real_array
 from .mount import SonarMount
 from .poses import Poses
@@ -106,7 +107,13 @@ class Flight:
         t1 = float(self.times[-1])
         if not self.times[0] <= t0 <= t1:
             raise ValueError(f"start={t0} s is outside the flight [{self.times[0]}, {t1}] s")
-        return t0 + np.arange(math.floor((t1 - t0) * rate + 1e-9) + 1) / rate
+        count = math.floor((t1 - t0) * rate + 1e-9) + 1
+        check_memory(
+            count * BYTES_PER_POSE,
+            f"pulses at rate_hz = {rate:g} over {t1 - t0:g} s ({count:.3g} pulses, as poses)",
+            "use a lower rate, or a part of the flight (start=)",
+        )
+        return t0 + np.arange(count) / rate
 
     def body_states(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
         """Body positions (p, 3) (cubic Hermite in position and velocity) and attitudes

@@ -16,10 +16,18 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from .._validate import finite, positive_scalar, readonly, real_array
+from .._resources import check_memory
+from .._validate import finite, integer, positive_scalar, readonly, real_array
 from .vehicle import Quadrotor, QuadState
 
 __all__ = ["QuadrotorSim", "SwarmState"]
+
+#: Memory per drone of a simulation (bytes): its state rows in Python and in Rust, with room
+#: for the integrator's temporaries.
+BYTES_PER_DRONE = 1000.0
+#: Memory per drone and RK4 step of :meth:`QuadrotorSim.step` (bytes): the path's position
+#: (3 f64) in Rust and in the returned array.
+BYTES_PER_PATH_POINT = 48.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,8 +100,13 @@ class QuadrotorSim:
     def __init__(self, quadrotor: Quadrotor, states: Any, n_drones: int | None = None):
         if not isinstance(quadrotor, Quadrotor):
             raise TypeError("quadrotor must be a batecho.Quadrotor")
-        if n_drones is not None and (isinstance(n_drones, bool) or int(n_drones) < 1):
-            raise ValueError(f"n_drones must be >= 1, got {n_drones}")
+        if n_drones is not None:
+            n_drones = integer(n_drones, "n_drones", 1)
+            check_memory(
+                n_drones * BYTES_PER_DRONE,
+                f"a simulation of n_drones = {n_drones} drones",
+                "fly fewer drones per simulation",
+            )
         self.quadrotor = quadrotor
         rows = _state_rows(states, n_drones)
         self._swarm = _core.Swarm(quadrotor._airframe, rows)
@@ -159,6 +172,11 @@ class QuadrotorSim:
         h = positive_scalar(dt, "dt")
         if isinstance(n_steps, bool) or not float(n_steps).is_integer() or n_steps < 1:
             raise ValueError(f"n_steps must be an integer >= 1, got {n_steps}")
+        check_memory(
+            float(n) * float(n_steps) * BYTES_PER_PATH_POINT,
+            f"a step of {n} drones by n_steps = {int(n_steps)} RK4 steps (its path)",
+            "step fewer RK4 steps per call",
+        )
         path = self._swarm.step(
             np.ascontiguousarray(v),
             np.ascontiguousarray(r),

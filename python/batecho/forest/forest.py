@@ -32,7 +32,7 @@ import numpy as np
 from .._geometry import rot_z
 from .._random import generator, int_seed, spawn
 from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
-from .._validate import integer, positive_scalar
+from .._validate import finite_scalar, integer, positive_scalar, vectors
 from ..trees.branches import Branches
 from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
@@ -469,6 +469,9 @@ class Forest:
         disks (centre plus radius) and bark triangles extend, as placed and scaled. With
         ``altitude`` (m), only the parts that come within ``band`` (m) of that height count
         (a disk spans its centre's height +- its radius, a triangle its corners' heights)."""
+        if altitude is not None:
+            altitude = finite_scalar(altitude, "altitude")
+        band = positive_scalar(band, "band", allow_zero=True)
         out = np.zeros(self.n_trees)
         for i in range(self.n_trees):
             v = self._variants[self._vi[i]]
@@ -521,9 +524,12 @@ class Forest:
     def clearance(self, points: Any, *, bark: bool = True) -> np.ndarray:
         """Distance (m) from each point (n, 3) to the nearest part of the placed forest: its
         leaf disks (:meth:`Scene.clearance`, on the BVH) and, with ``bark``, its bark
-        triangles (:func:`~batecho.forest.clearance.bark_clearance`). Returns (n,) float64."""
+        triangles (:func:`~batecho.forest.clearance.bark_clearance`). Returns (n,) float64;
+        a forest without trees (a Poisson draw may hold none) is ``inf`` away."""
         from .clearance import solid_clearance
 
+        if self.n_trees == 0:
+            return np.full(len(vectors(points, "points")), np.inf)
         return solid_clearance(self, points, bark=bark).distance
 
     def bark(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
