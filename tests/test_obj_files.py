@@ -118,3 +118,17 @@ def test_any_blank_after_usemtl_separates_the_material_name(tmp_path, blank):
     mesh = batecho.load_obj(obj)
     assert mesh.n_leaves == 1
     assert list(mesh.group_names) == ["leaf"]
+
+
+def test_a_byte_order_mark_does_not_hide_the_first_vertex(tmp_path):
+    text = "v 0 0 0\nv .05 0 0\nv 0 .05 0\nv 0 0 .05\no leaf\nf 1 2 3\n"
+    plain = batecho.load_obj(write(tmp_path, text, "plain.obj"))
+    (tmp_path / "bom.obj").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    marked = batecho.load_obj(tmp_path / "bom.obj")
+    assert marked.leaves.centers.tolist() == plain.leaves.centers.tolist()
+
+
+def test_a_byte_order_mark_does_not_hide_the_first_name(tmp_path):
+    (tmp_path / "bom.obj").write_bytes(b"\xef\xbb\xbfo leaf\n" + CARD.encode() + b"f 1 2 3 4\n")
+    mesh = batecho.load_obj(tmp_path / "bom.obj")
+    assert mesh.n_leaves == 1 and list(mesh.group_names) == ["leaf"]

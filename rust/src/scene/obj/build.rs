@@ -41,7 +41,8 @@ pub fn load_obj(path: &Path, opts: &ObjOptions) -> Result<ObjMesh> {
             )));
         }
     };
-    load_text(text, path, opts)
+    // (a byte-order mark, as some Windows tools write, is not part of the first statement)
+    load_text(text.strip_prefix('\u{feff}').unwrap_or(text), path, opts)
 }
 
 struct LeafFace {

@@ -351,6 +351,7 @@ fn load_mtl_file(
         ));
         return fail;
     };
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // tobj panics on a colour line with fewer than 3 numbers; refuse those first.
     for (i, line) in text.lines().enumerate() {
         let mut w = line.split_whitespace();
