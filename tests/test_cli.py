@@ -509,3 +509,76 @@ def test_the_example_flights_keep_their_margin_from_leaves_and_bark(name):
 def test_the_demo_keeps_its_margin(demo_out):
     with np.load(demo_out / "echoes.npz") as z:
         assert z["clearance_m"].min() >= 0.5
+
+
+# ------------------------------------------------------------------------- output paths
+
+
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def test_an_output_folder_that_is_a_file_is_refused_by_name(tmp_path, capsys):
+    scene, afile = _write(tmp_path, TINY), _write(tmp_path, "", "afile")
+    assert main(["simulate", str(scene), "--out", str(afile), "-q"]) == 2
+    line = _one_line_error(capsys)
+    assert str(afile) in line and "is a file, not a folder" in line
+
+
+def test_an_output_folder_below_a_file_is_refused_naming_the_file(tmp_path, capsys):
+    scene, afile = _write(tmp_path, TINY), _write(tmp_path, "", "afile")
+    assert main(["simulate", str(scene), "--out", str(afile / "sub"), "-q"]) == 2
+    assert f"{afile} is a file" in _one_line_error(capsys)
+
+
+def test_an_output_folder_is_checked_before_the_scene_is_simulated(tmp_path, monkeypatch):
+    def never(*args, **kwargs):
+        raise AssertionError("simulated before the output folder was checked")
+
+    monkeypatch.setattr("batecho.scenefile.run.setup_scenefile", never)
+    scene, afile = _write(tmp_path, TINY), _write(tmp_path, "", "afile")
+    assert main(["simulate", str(scene), "--out", str(afile / "sub"), "-q"]) == 2
+
+
+def test_a_table1_file_below_a_file_is_refused_before_timing(tmp_path, monkeypatch, capsys):
+    def never(*args, **kwargs):
+        raise AssertionError("timed before the output file was checked")
+
+    import importlib
+
+    monkeypatch.setattr(importlib.import_module("batecho.paper.table1"), "table1", never)
+    afile = _write(tmp_path, "", "afile")
+    assert main(["paper", "table1", "--points", "1", "--trees", "1", "-q",
+                 "--out", str(afile / "x.md")]) == 2  # fmt: skip
+    assert f"{afile}: the output folder is a file" in _one_line_error(capsys)
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (a full disk)")
+def test_a_full_disk_is_one_line_naming_the_file(capsys):
+    argv = ["paper", "table1", "--points", "1", "--trees", "1", "--repeats", "1",
+            "--timing-runs", "1", "--out", "/dev/full", "-q"]  # fmt: skip
+    assert main(argv) == 2
+    line = _one_line_error(capsys)
+    assert "/dev/full" in line and "No space left on device" in line
+
+
+def test_a_file_system_error_exits_2_naming_the_path(tmp_path, monkeypatch, capsys):
+    def unwritable(args):
+        raise PermissionError(13, "Permission denied", str(tmp_path / "ro"))
+
+    monkeypatch.setattr("batecho.cli.app.run_simulate", unwritable)
+    assert main(["simulate", "x.toml"]) == 2
+    line = _one_line_error(capsys)
+    assert line == f"batecho simulate: error: {tmp_path / 'ro'}: Permission denied"
+
+
+def test_a_bug_still_shows_its_traceback(monkeypatch):
+    def bug(args):
+        raise KeyError("a bug")
+
+    monkeypatch.setattr("batecho.cli.app.run_simulate", bug)
+    with pytest.raises(KeyError, match="a bug"):
+        main(["simulate", "x.toml"])

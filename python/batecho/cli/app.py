@@ -1,6 +1,8 @@
 """The ``batecho`` command line's parser and entry point: ``demo``, ``simulate``, ``paper
 figures``, ``paper table1`` and ``dataset``. User errors (bad arguments, a bad scene file, a
-missing file) print one line and exit with status 2, without a traceback."""
+missing file) and the file system's errors (a path that is a file, not a folder, unwritable,
+a full disk) print one line naming the problem, and the path, and exit with status 2,
+without a traceback."""
 
 from __future__ import annotations
 
@@ -343,9 +345,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         ScenefileError,
         ValueError,
         TypeError,
-        FileNotFoundError,
-        IsADirectoryError,
-        PermissionError,
         RuntimeError,
         MemoryError,
     ) as exc:
@@ -359,6 +358,17 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as exc:
+        print(f"batecho {name}: error: {os_error_message(exc)}", file=sys.stderr)
+        return 2
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for a file system error: the path(s) it names, then what went wrong."""
+    if exc.filename is None:
+        return str(exc)
+    paths = " -> ".join(str(f) for f in (exc.filename, exc.filename2) if f is not None)
+    return f"{paths}: {exc.strerror or exc}"
 
 
 if __name__ == "__main__":

@@ -167,12 +167,12 @@ def demo_toml(seed: int, trees: int, beamwidth: float, quadrotor: str, pulse_rat
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    from ..outputs.files import make_output_folder
     from ..scenefile.file import SceneFile
     from ..scenefile.run import run_scenefile
 
     say = say_fn(args.quiet)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_output_folder(args.out)
     t0 = time.perf_counter()
     files = _canonical(out, args.seed)
     text = demo_toml(args.seed, args.trees, args.beamwidth, args.quadrotor, args.pulse_rate)
@@ -235,17 +235,18 @@ def _summary(res) -> None:
 
 
 def run_simulate(args: argparse.Namespace) -> int:
+    from ..outputs.files import check_output_folder
     from ..scenefile.file import SceneFile
     from ..scenefile.run import run_scenefile
 
     say = say_fn(args.quiet)
+    out = check_output_folder(args.out if args.out else f"{Path(args.scene).stem}-out")
     sf = SceneFile.from_path(args.scene)
     if args.seed is not None:
         sf.config["seed"] = args.seed
     for key in ("wav", "mat", "xarray"):
         if getattr(args, key, False):
             sf.config["output"][key] = True
-    out = Path(args.out) if args.out else Path(f"{Path(args.scene).stem}-out")
     t0 = time.perf_counter()
     res = run_scenefile(sf, out, plots=not args.no_plots, progress=say)
     _summary(res)
@@ -259,8 +260,10 @@ def run_simulate(args: argparse.Namespace) -> int:
 
 
 def run_paper_figures(args: argparse.Namespace) -> int:
+    from ..outputs.files import check_output_folder
     from ..paper.figures import paper_figures
 
+    check_output_folder(args.out)
     t0 = time.perf_counter()
     written = paper_figures(
         args.out,
@@ -277,8 +280,12 @@ def run_paper_figures(args: argparse.Namespace) -> int:
 
 
 def run_paper_table1(args: argparse.Namespace) -> int:
+    from ..outputs.files import check_output_file, make_output_folder, writing
     from ..paper.table1 import table1
 
+    for path in (args.out, args.npz):
+        if path:
+            check_output_file(path)
     res = table1(
         points=args.points,
         trees=args.trees,
@@ -295,12 +302,14 @@ def run_paper_table1(args: argparse.Namespace) -> int:
     md = res.to_markdown()
     wrote = []
     if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(md, encoding="utf-8")
+        make_output_folder(Path(args.out).parent)
+        with writing(args.out):
+            Path(args.out).write_text(md, encoding="utf-8")
         wrote.append(args.out)
     if args.npz:
-        Path(args.npz).parent.mkdir(parents=True, exist_ok=True)
-        wrote.append(res.to_npz(args.npz))
+        make_output_folder(Path(args.npz).parent)
+        with writing(args.npz):
+            wrote.append(res.to_npz(args.npz))
     print(md)
     for w in wrote:
         print(f"wrote {w}")

@@ -15,6 +15,7 @@ from ..flight.poses import Poses, look_at
 from ..forest.ipp import draw_tree_positions
 from ..forest.models import make_forest
 from ..forest.scene import Scene
+from ..outputs.files import make_output_folder
 from ..outputs.npz import write_npz
 from .settings import (
     DEFAULT_SEED,
@@ -114,8 +115,7 @@ def paper_figures(
     )
 
     plt = _plt()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_output_folder(out_dir)
     ss = np.random.SeedSequence(int(seed))
     rngs = [np.random.default_rng(s) for s in ss.spawn(3)]
     written: dict[str, Path] = {}

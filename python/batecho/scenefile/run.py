@@ -18,6 +18,7 @@ from ..echoes.export import wood_and_shading
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.clearance import ClearanceWarning, SolidClearance, low_clearance, solid_clearance
 from ..forest.scene import Scene
+from ..outputs.files import check_output_folder, make_output_folder, writing
 from ..outputs.npz import write_npz
 from ..sonar.record import sonar_params
 from ..sonar.sonar import Sonar
@@ -184,8 +185,7 @@ def run_scenefile(
     from ..echoes.simulate import simulate
 
     say = progress or (lambda msg: None)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_folder(out_dir)
     say("building the scene and the flight")
     st = setup_scenefile(sf)
     cfg = sf.config
@@ -208,6 +208,7 @@ def run_scenefile(
     except ValueError as exc:
         raise ScenefileError(f"{sf.path or '<string>'}: simulating: {exc}") from None
     timings = dict(st.timings_s, simulate_s=time.perf_counter() - t0)
+    make_output_folder(out)
     files: list[Path] = []
     p = len(echoes)
     idx = sample_indices(p, oc["sample_points"], st.plan.closed)
@@ -264,11 +265,13 @@ def run_scenefile(
             "sonar_json": sonar_params(st.sonar),
             "scene_json": scene_desc,
         }
-        files.append(write_npz(out / "echoes.npz", arrays, records))
+        with writing(out / "echoes.npz"):
+            files.append(write_npz(out / "echoes.npz", arrays, records))
     files += _exports(echoes, out, oc, call, received, say)
     if oc["obj"]:
         say("writing scene.obj")
-        files.append(_write_scene_obj(st, out / "scene.obj"))
+        with writing(out / "scene.obj"):
+            files.append(_write_scene_obj(st, out / "scene.obj"))
     if plots and oc["plots"]:
         files += _plots(st, echoes, idx, out, oc, say)
     return RunResult(st, echoes, files, timings, clearance, least, least_t)
@@ -280,10 +283,12 @@ def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
     files = []
     if oc["wav"]:
         say("writing echoes.wav")
-        files.append(_wav(echoes, out / "echoes.wav", oc["wav_time_expansion"], received))
+        with writing(out / "echoes.wav"):
+            files.append(_wav(echoes, out / "echoes.wav", oc["wav_time_expansion"], received))
     if oc["mat"]:
         say("writing echoes.mat")
-        files.append(echoes.to_mat(out / "echoes.mat", call=call, received=received))
+        with writing(out / "echoes.mat"):
+            files.append(echoes.to_mat(out / "echoes.mat", call=call, received=received))
     if oc["xarray"]:
         say("writing echoes.zarr")
         import shutil
@@ -292,7 +297,8 @@ def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
         if path.exists():
             shutil.rmtree(path)
         ds = echoes.to_xarray(call=call, received=received)
-        ds.to_zarr(path, consolidated=False)
+        with writing(path):
+            ds.to_zarr(path, consolidated=False)
         files.append(path)
     return files
 
@@ -353,8 +359,11 @@ def _plots(st: SimulationSetup, echoes, idx, out: Path, oc: dict, say) -> list[P
     best = int(idx[np.argmax(echoes.n_leaves[idx])])
 
     def save(fig, name):
-        fig.savefig(out / name, dpi=dpi)
-        plt.close(fig)
+        try:
+            with writing(out / name):
+                fig.savefig(out / name, dpi=dpi)
+        finally:
+            plt.close(fig)
         files.append(out / name)
 
     bw = None if st.sonar.beam is None else st.sonar.beam.beamwidth_deg
