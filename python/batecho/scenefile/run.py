@@ -190,6 +190,9 @@ def run_scenefile(
     st = setup_scenefile(sf)
     cfg = sf.config
     oc = cfg["output"]
+    call = sf.build_call(st.sonar.fs)
+    if oc["wav"]:
+        _check_wav_rate(sf, st.sonar.fs)
     say("checking the clearance of every pulse from leaves and bark")
     t0 = time.perf_counter()
     clearance = check_clearance(st)
@@ -212,7 +215,6 @@ def run_scenefile(
     files: list[Path] = []
     p = len(echoes)
     idx = sample_indices(p, oc["sample_points"], st.plan.closed)
-    call = sf.build_call(st.sonar.fs)
     received = None
     if call is not None:
         say(f"receiving the call ({call!r})")
@@ -301,6 +303,15 @@ def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
             ds.to_zarr(path, consolidated=False)
         files.append(path)
     return files
+
+
+def _check_wav_rate(sf: SceneFile, fs: float) -> None:
+    te = sf.config["output"]["wav_time_expansion"]
+    if not 1 <= round(fs / te) <= 2**31 - 1:
+        raise ScenefileError(
+            f"{sf.path or '<string>'}: [output] wav_time_expansion: fs / {te:g} = "
+            f"{fs / te:g} Hz is not a WAV rate (1 Hz to 2^31 - 1 Hz)"
+        )
 
 
 def _wav(echoes, path: Path, time_expansion: float, received) -> Path:

@@ -62,6 +62,7 @@ from typing import Any
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.clearance import DEFAULT_MIN_CLEARANCE_M
 from ..forest.models import TREE_MODELS
+from ..sonar.beam import horseshoe_bat_beamwidth_deg
 
 __all__ = [
     "CALL_KINDS",
@@ -541,8 +542,22 @@ def check_document(doc: dict) -> dict[str, Any]:
         raise ScenefileError("[flight]: give n_pulses or pulse_rate_hz, not both")
     if "n_pulses" in fl and fl["n_pulses"] < 1:
         raise ScenefileError(f"[flight] n_pulses: must be >= 1, got {fl['n_pulses']}")
+    for key in ("pulse_rate_hz", "dt", "duration", "speed"):
+        if key in fl and not fl[key] > 0:
+            raise ScenefileError(f"[flight] {key}: must be > 0, got {fl[key]}")
     if "n_pulses" not in fl and "pulse_rate_hz" not in fl:
         fl["n_pulses"] = 15
+    if (
+        "duration" in fl
+        and "n_pulses" in fl
+        and fl["mode"] == "kinematic"
+        and fl["path"] in ("circle", "line", "figure_eight")
+    ):
+        raise ScenefileError(
+            f"[flight] duration: not used by kinematic pulses placed by n_pulses on a path = "
+            f'"{fl["path"]}" (they span the whole path); give pulse_rate_hz, or leave '
+            "duration out"
+        )
     if fl["path"] == "line" and "start" not in fl:
         raise ScenefileError('[flight]: path = "line" needs start = [x, y, z]')
     if fl["path"] == "waypoints" and "points" not in fl:
@@ -552,6 +567,15 @@ def check_document(doc: dict) -> dict[str, Any]:
     if "yaw_deg" in fl and fl["heading"] != "fixed":
         raise ScenefileError('[flight] yaw_deg: only used with heading = "fixed"')
     so = cfg["sonar"]
+    if "horseshoe_bat_khz" in so:
+        f_khz = so["horseshoe_bat_khz"]
+        bw = horseshoe_bat_beamwidth_deg(f_khz)
+        if not 0.0 < bw < 180.0:
+            raise ScenefileError(
+                f"[sonar] horseshoe_bat_khz: the horseshoe-bat fit at {f_khz:g} kHz gives a "
+                f"beamwidth of {bw:.6g} deg, not in (0, 180); the fit gives one from about "
+                "48.4 to 94.3 kHz"
+            )
     if "binaural" in so and ("receivers" in so or so.get("receiver")):
         raise ScenefileError(
             "[sonar] binaural: give [sonar.binaural] or [[sonar.receivers]] / [sonar.receiver], "
@@ -569,6 +593,8 @@ def check_document(doc: dict) -> dict[str, Any]:
         missing = sorted(_CALL_KEYS[call["kind"]] - set(call))
         if missing:
             raise ScenefileError(f'[call]: kind = "{call["kind"]}" needs {", ".join(missing)}')
+        if call["noise_rms"] < 0:
+            raise ScenefileError(f"[call] noise_rms: must be >= 0, got {call['noise_rms']}")
     two = "binaural" in so or len(so.get("receivers", [])) >= 2
     for name in cfg["output"]["plots"]:
         if name in RECEIVER_PLOTS and not two:
@@ -579,11 +605,17 @@ def check_document(doc: dict) -> dict[str, Any]:
     for key in ("sample_points", "dpi", "max_scene_points"):
         if cfg["output"][key] < 1:
             raise ScenefileError(f"[output] {key}: must be >= 1, got {cfg['output'][key]}")
+    if not cfg["output"]["wav_time_expansion"] > 0:
+        raise ScenefileError(
+            f"[output] wav_time_expansion: must be > 0, got {cfg['output']['wav_time_expansion']}"
+        )
     if cfg["output"]["dpi"] > MAX_DPI:
         raise ScenefileError(
             f"[output] dpi: at most {MAX_DPI} (print quality is 300-600), "
             f"got {cfg['output']['dpi']}"
         )
+    if not 0.0 < cfg["tol"] < 1.0:
+        raise ScenefileError(f"tol: must be in (0, 1), got {cfg['tol']}")
     if not 0 <= cfg["seed"] < 2**128:
         raise ScenefileError(f"seed: must be an integer in [0, 2^128), got {cfg['seed']}")
     return cfg
