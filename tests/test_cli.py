@@ -582,3 +582,18 @@ def test_a_bug_still_shows_its_traceback(monkeypatch):
     monkeypatch.setattr("batecho.cli.app.run_simulate", bug)
     with pytest.raises(KeyError, match="a bug"):
         main(["simulate", "x.toml"])
+
+
+# ----------------------------------------------------------------- scene files from Python
+
+
+def test_run_scenefile_takes_the_path_of_a_scene_file(tmp_path):
+    scene = _write(tmp_path, TINY.replace("plots = [", 'plots = []\n# ["'))
+    res = batecho.run_scenefile(str(scene), tmp_path / "o")
+    assert res.setup.scenefile.path == scene and (tmp_path / "o" / "echoes.npz").exists()
+
+
+def test_run_scenefile_refuses_another_type_before_making_its_folder(tmp_path):
+    with pytest.raises(TypeError, match="a SceneFile or the path of a scene file, got dict"):
+        batecho.run_scenefile({"scene": {"kind": "leaf_box"}}, tmp_path / "o")  # type: ignore[arg-type]
+    assert not (tmp_path / "o").exists()

@@ -158,13 +158,14 @@ def flight_min_clearance(
 
 
 def run_scenefile(
-    sf: SceneFile,
+    sf: SceneFile | str | os.PathLike,
     out_dir: str | os.PathLike,
     *,
     plots: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> RunResult:
-    """Build, simulate and write the outputs of a scene file into ``out_dir``.
+    """Build, simulate and write the outputs of a scene file into ``out_dir``: ``sf`` is a
+    :class:`SceneFile` or the path of one (read with :meth:`SceneFile.from_path`).
 
     Writes ``echoes.npz`` (``[output] npz``) with keys ``spectrum``, ``freqs``, ``band_bins``
     (first and last band bin: ``impulse = 2 irfft(Y, n_samples)`` with ``Y`` zero outside
@@ -184,6 +185,12 @@ def run_scenefile(
     """
     from ..echoes.simulate import simulate
 
+    if isinstance(sf, (str, os.PathLike)):
+        sf = SceneFile.from_path(sf)
+    elif not isinstance(sf, SceneFile):
+        raise TypeError(
+            f"run_scenefile takes a SceneFile or the path of a scene file, got {type(sf).__name__}"
+        )
     say = progress or (lambda msg: None)
     out = check_output_folder(out_dir)
     say("building the scene and the flight")
