@@ -150,3 +150,14 @@ def test_a_resume_recomputes_a_chunk_marked_complete_but_damaged(made, tmp_path)
     verify(store)
     after = np.asarray(zarr.open_group(str(store), mode="r")["position"][...])
     assert after.tobytes() == before.tobytes()
+
+
+@pytest.mark.parametrize("command", ["verify", "show"])
+def test_a_toml_spec_given_for_a_store_is_named_as_a_spec_not_as_missing(tmp_path, capsys, command):
+    from batecho.cli import main
+
+    spec = Path(__file__).parents[1] / "examples" / "dataset-small.toml"
+    assert main(["dataset", command, str(spec)]) != 0
+    err = capsys.readouterr().err
+    assert f"{spec} is a TOML spec, not a dataset: this expects a zarr store" in err
+    assert "does not exist" not in err

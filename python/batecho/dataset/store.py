@@ -303,6 +303,18 @@ def _open_group(store: StoreLike, mode: str = "r"):
         raise DatasetError(f"{store} is not a readable zarr group ({exc})") from None
 
 
+def _no_store(store: StoreLike) -> DatasetError:
+    """The error for a path that holds no zarr store: missing, or a file (a TOML spec?)."""
+    p = Path(store)
+    if "://" not in str(store) and p.is_file():
+        what = "a TOML spec" if p.suffix.lower() == ".toml" else "a file"
+        return DatasetError(
+            f"{store} is {what}, not a dataset: this expects a zarr store (a folder such as "
+            "small.zarr, written by batecho dataset generate SPEC.toml STORE.zarr)"
+        )
+    return DatasetError(f"{store} does not exist (no zarr store there)")
+
+
 def read_spec(store: StoreLike, group: Any = None) -> DatasetSpec:
     """The spec stored in a batecho dataset store, checked against its stored hash.
 
@@ -310,7 +322,7 @@ def read_spec(store: StoreLike, group: Any = None) -> DatasetSpec:
     """
     g = group if group is not None else _open_group(store)
     if g is None:
-        raise DatasetError(f"{store} does not exist (no zarr store there)")
+        raise _no_store(store)
     attrs = dict(g.attrs)
     if attrs.get("batecho_format") != FORMAT:
         raise DatasetError(
@@ -711,7 +723,7 @@ def verify(store: StoreLike, deep: bool = True) -> VerifyReport:
     t0 = time.perf_counter()
     g = _open_group(store, mode="r")
     if g is None:
-        raise DatasetError(f"{store} does not exist (no zarr store there)")
+        raise _no_store(store)
     spec = read_spec(store, g)
     problems = _layout_problems(g, spec)
     problems = problems or _metadata_problems(g, spec) + _coordinate_problems(g, spec)
@@ -747,6 +759,6 @@ def open_dataset(store: StoreLike, check: bool = False) -> Any:
     else:
         g = _open_group(store, mode="r")
         if g is None:
-            raise DatasetError(f"{store} does not exist (no zarr store there)")
+            raise _no_store(store)
         read_spec(store, g)
     return xr.open_zarr(str(store))
