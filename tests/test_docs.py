@@ -114,3 +114,74 @@ def test_the_readme_links_every_guide():
     text = README.read_text(encoding="utf-8")
     linked = {(ROOT / target).resolve() for target in LINK.findall(text)}
     assert not [p.name for p in GUIDES if p.resolve() not in linked and p.name != "index.md"]
+
+
+def table_rows(path: Path) -> dict[str, set[str]]:
+    """The first column of each row of a guide's key tables -> the `names` in its second."""
+    rows = re.findall(r"^\| ([^|]+) \| (.+) \|$", path.read_text(encoding="utf-8"), re.M)
+    names = re.compile(r"\[*([\w.]+)\]*(?: = .*)?")
+    return {
+        label.strip("`"): {m.group(1) for span in re.findall(r"`([^`]+)`", keys)
+                           if (m := names.fullmatch(span))}
+        for label, keys in rows
+    }  # fmt: skip
+
+
+def test_the_cli_guide_key_table_names_every_key_of_a_scene_file():
+    from batecho.scenefile import schema
+
+    rows = table_rows(ROOT / "docs" / "guide" / "cli.md")
+    tables = {"scene", "sonar", "flight", "output", "call"}
+    expected = {
+        "top level": set(schema._TOP) - tables,
+        "[scene]": set(schema._SCENE) - {"tree"} | {"scene.tree"},
+        "[flight]": set(schema._FLIGHT) - {"mount"} | {"flight.mount"} | set(schema._MOUNT),
+        "[call]": set(schema._CALL),
+        "[output]": set(schema._OUTPUT),
+        "[sonar]": {"horseshoe_bat_khz", "sonar.binaural", "sonar.receivers"}
+        | set(schema._BINAURAL) - {"ear_beam"}
+        | set(schema._RECEIVER) - {"beam"},
+    }
+    for label, keys in expected.items():
+        assert not keys - rows[label], (label, sorted(keys - rows[label]))
+
+
+def test_the_scene_file_sonar_table_takes_every_sonar_parameter_as_the_cli_guide_says():
+    import inspect
+
+    import batecho
+    from batecho.scenefile import schema
+
+    assert set(inspect.signature(batecho.Sonar).parameters) <= set(schema._SONAR)
+
+
+def test_the_datasets_guide_names_exactly_the_sonar_keys_a_spec_takes():
+    import dataclasses
+
+    from batecho.dataset.spec import SonarSpec
+
+    row = table_rows(ROOT / "docs" / "guide" / "datasets.md")["[sonar]"]
+    refused = {"absorption", "record_tail_s", "beam"}
+    assert row - {"batecho.Sonar"} == {f.name for f in dataclasses.fields(SonarSpec)} | refused
+
+
+@pytest.mark.parametrize("key", ["absorption", "record_tail_s", "beam"])
+def test_a_sonar_parameter_the_datasets_guide_says_is_refused_is_refused(key):
+    from batecho.dataset import DatasetSpec
+    from batecho.dataset.spec import SpecError
+
+    text = (ROOT / "examples" / "dataset-small.toml").read_text(encoding="utf-8")
+    text = text.replace("[sonar]\n", f"[sonar]\n{key} = 1.0\n", 1)
+    with pytest.raises(SpecError, match=key):
+        DatasetSpec.from_toml_string(text)
+
+
+def test_the_dataset_example_offers_a_scene_kind_the_spec_accepts():
+    from batecho.dataset import DatasetSpec
+
+    text = (ROOT / "examples" / "dataset-small.toml").read_text(encoding="utf-8")
+    kinds = re.search(r'^kind = "(\w+)" +# or "(\w+)".*$', text, re.M)
+    assert kinds, "examples/dataset-small.toml offers no other scene kind"
+    for kind in kinds.groups():
+        spec = DatasetSpec.from_toml_string(text.replace(kinds.group(0), f'kind = "{kind}"'))
+        assert spec.scene.kind == kind
