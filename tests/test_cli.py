@@ -597,3 +597,9 @@ def test_run_scenefile_refuses_another_type_before_making_its_folder(tmp_path):
     with pytest.raises(TypeError, match="a SceneFile or the path of a scene file, got dict"):
         batecho.run_scenefile({"scene": {"kind": "leaf_box"}}, tmp_path / "o")  # type: ignore[arg-type]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_paper_figures_resolution_beyond_the_scene_file_cap_is_refused_up_front(tmp_path, capsys):
+    assert main(["paper", "figures", "--dpi", "100000", "--out", str(tmp_path / "o")]) == 2
+    assert "--dpi: at most 2400 dots per inch" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.models import TREE_MODELS
+from ..scenefile.schema import MAX_DPI
 from .commands import UserError, run_demo, run_paper_figures, run_paper_table1, run_simulate
 
 EPILOG = """\
@@ -47,6 +48,15 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
     if v < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return v
+
+
+def _dpi(text: str) -> int:
+    v = _positive_int(text)
+    if v > MAX_DPI:
+        raise argparse.ArgumentTypeError(
+            f"at most {MAX_DPI} dots per inch (print quality is 300-600), got {text!r}"
+        )
     return v
 
 
@@ -219,7 +229,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         default=72,
         help="pulses in the echo images around the circle (default 72)",
     )
-    pf.add_argument("--dpi", type=_positive_int, default=110, help="PNG resolution")
+    pf.add_argument(
+        "--dpi", type=_dpi, default=110, help=f"PNG resolution, at most {MAX_DPI} (default 110)"
+    )
     pf.add_argument(
         "--tree-model",
         choices=tuple(TREE_MODELS),
