@@ -175,6 +175,28 @@ def test_simulate_seed_option_overrides_the_file(tmp_path):
     assert not list((tmp_path / "o").glob("*.png"))
 
 
+def test_simulate_seed_option_is_the_seed_of_the_stored_scene_file(tmp_path):
+    import tomllib
+
+    scene = _write(tmp_path, TINY)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "o"), "--seed", "9",
+                 "--no-plots", "-q"]) == 0  # fmt: skip
+    with np.load(tmp_path / "o" / "echoes.npz") as z:
+        assert tomllib.loads(str(z["config_toml"]))["seed"] == 9
+        assert json.loads(str(z["config_json"]))["seed"] == 9
+
+
+def test_a_scene_file_with_another_seed_keeps_the_rest_of_its_text():
+    sf = SceneFile.from_string(TINY.replace("seed = 3", "seed = 3   # the draw"))
+    assert sf.with_seed(9).text == TINY.replace("seed = 3", "seed = 9   # the draw")
+
+
+def test_a_scene_file_without_a_seed_is_given_one_at_the_top():
+    sf = SceneFile.from_string(TINY.replace("seed = 3\n", ""))
+    again = sf.with_seed(9)
+    assert again.text.startswith("seed = 9\n") and again.seed == 9 and sf.seed == 0
+
+
 def test_example_leaf_box_toml_runs(tmp_path):
     assert main(["simulate", str(EXAMPLES / "leaf_box.toml"), "--out", str(tmp_path),
                  "--no-plots", "-q"]) == 0  # fmt: skip

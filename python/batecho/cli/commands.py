@@ -243,7 +243,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     out = check_output_folder(args.out if args.out else f"{Path(args.scene).stem}-out")
     sf = SceneFile.from_path(args.scene)
     if args.seed is not None:
-        sf.config["seed"] = args.seed
+        sf = sf.with_seed(args.seed)
     for key in ("wav", "mat", "xarray"):
         if getattr(args, key, False):
             sf.config["output"][key] = True

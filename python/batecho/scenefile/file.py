@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import copy
 import os
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -77,6 +79,30 @@ class SceneFile:
         except UnicodeDecodeError as exc:
             raise ScenefileError(f"{p}: not UTF-8 text ({exc})") from None
         return cls.from_string(text, p)
+
+    def with_seed(self, seed: int) -> SceneFile:
+        """A copy whose ``seed`` is ``seed``, in ``config`` and in ``text`` (its top-level
+        ``seed = ...`` line rewritten, or one added at the top), so that the text reruns it."""
+        config = dict(copy.deepcopy(self.config), seed=int(seed))
+        text = self.text
+        if text:
+            table = re.search(r"^[ \t]*\[", text, re.M)
+            top = table.start() if table else len(text)
+            line = re.compile(
+                r"^([ \t]*([\"']?)seed\2[ \t]*=[ \t]*)[^#\n]*?([ \t]*(?:#.*)?)$", re.M
+            )
+            if line.search(text, 0, top):
+                head = line.sub(lambda m: f"{m.group(1)}{int(seed)}{m.group(3)}", text[:top], 1)
+                text = head + text[top:]
+            else:
+                text = f"seed = {int(seed)}\n" + text
+            try:
+                rewritten = tomllib.loads(text).get("seed") == int(seed)
+            except tomllib.TOMLDecodeError:
+                rewritten = False
+            if not rewritten:  # pragma: no cover - a safeguard
+                raise AssertionError("rewriting the seed of the scene file's text failed")
+        return SceneFile(config, text, self.path)
 
     @property
     def _name(self) -> str:

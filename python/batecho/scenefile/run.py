@@ -174,14 +174,14 @@ def run_scenefile(
     ``sample_indices``, ``clearance_m`` (each pulse's distance to the nearest leaf or bark),
     ``min_clearance_m`` and ``min_clearance_time_s`` (the flight's smallest such distance over
     every recorded step when flown, else over the pulses, and its time: NaN by count),
-    ``tree_positions``, ``path_points``, ``seed``, ``config_toml`` (the
-    file as given), ``config_json`` (every table with its defaults), ``sonar_json``,
-    ``scene_json``, ``batecho_version`` and, when flown, ``flight_times``,
-    ``flight_positions``, ``flight_reference_positions``; the PNG plots of ``[output] plots``
-    (``scene_3d.png``, ``impulses.png``, ``echo_image.png``, ``spectrogram.png``,
-    ``spectrum.png``) and, with ``[output] obj = true``, ``scene.obj``. ``progress(message)``
-    is told of each step. A pulse closer than ``[flight] min_clearance_m`` to a leaf or bark
-    is refused (see :func:`check_clearance`).
+    ``tree_positions``, ``path_points``, ``seed``, ``config_toml`` (the file's text, with
+    the seed used: see :meth:`SceneFile.with_seed`), ``config_json`` (every table with its
+    defaults), ``sonar_json``, ``scene_json``, ``batecho_version`` and, when flown,
+    ``flight_times``, ``flight_positions``, ``flight_reference_positions``; the PNG plots
+    of ``[output] plots`` (``scene_3d.png``, ``impulses.png``, ``echo_image.png``,
+    ``spectrogram.png``, ``spectrum.png``) and, with ``[output] obj = true``, ``scene.obj``.
+    ``progress(message)`` is told of each step. A pulse closer than ``[flight]
+    min_clearance_m`` to a leaf or bark is refused (see :func:`check_clearance`).
     """
     from ..echoes.simulate import simulate
 
