@@ -69,11 +69,22 @@ def test_the_exports_hold_the_received_call(ears_out):
 
     with np.load(ears_out / "echoes.npz") as z:
         received = z["received"]
-    ds = xr.open_zarr(ears_out / "echoes.zarr", consolidated=False).load()
+    ds = xr.open_zarr(ears_out / "echoes.zarr").load()
     assert np.array_equal(ds["received"].values, received)
     assert np.array_equal(loadmat(ears_out / "echoes.mat")["received"], received)
     rate, data = wavfile.read(ears_out / "echoes.wav")
     assert rate == 40_000 and data.shape == (3 * 24000, 2)
+
+
+def test_the_echoes_zarr_opens_with_xarray_without_a_warning(ears_out):
+    import warnings
+
+    import xarray as xr
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ds = xr.open_zarr(ears_out / "echoes.zarr")
+    assert ds["impulse"].dims == ("pose", "receiver", "time")
 
 
 def test_a_scene_file_with_receivers_matches_the_library():

@@ -306,8 +306,11 @@ def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
         if path.exists():
             shutil.rmtree(path)
         ds = echoes.to_xarray(call=call, received=received)
-        with writing(path):
-            ds.to_zarr(path, consolidated=False)
+        with writing(path), warnings.catch_warnings():
+            # (consolidated, so that xarray.open_zarr opens it in one read and without a
+            # warning; zarr notes that consolidated metadata is not in the v3 spec)
+            warnings.simplefilter("ignore", UserWarning)
+            ds.to_zarr(path, consolidated=True)
         files.append(path)
     return files
 
