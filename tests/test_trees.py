@@ -361,6 +361,12 @@ def test_grow_tree_rejects_bad_parameters(kwargs):
         grow_tree(0, **kwargs)
 
 
+@pytest.mark.parametrize("grow", [grow_tree, grow_lsystem_tree])
+def test_a_negative_seed_is_refused_naming_rng(grow):
+    with pytest.raises(ValueError, match="rng must be a non-negative int seed"):
+        grow(-1)
+
+
 # ---------------------------------------------------------------------------------------------
 # grow_lsystem_tree
 # ---------------------------------------------------------------------------------------------

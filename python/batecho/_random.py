@@ -15,9 +15,12 @@ def _is_int_seed(rng: Any) -> bool:
 
 def generator(rng: Any) -> np.random.Generator:
     """``rng`` itself if it is a Generator, else ``numpy.random.default_rng(rng)`` for an int
-    seed, a SeedSequence or None; TypeError for anything else."""
+    seed (>= 0; ValueError for a negative one), a SeedSequence or None; TypeError for anything
+    else."""
     if isinstance(rng, np.random.Generator):
         return rng
+    if _is_int_seed(rng) and rng < 0:
+        raise ValueError(f"rng must be a non-negative int seed (or a numpy Generator), got {rng!r}")
     if rng is None or _is_int_seed(rng) or isinstance(rng, np.random.SeedSequence):
         return np.random.default_rng(rng)
     raise TypeError(f"rng must be a numpy Generator, an int seed or None, got {rng!r}")

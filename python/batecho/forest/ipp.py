@@ -12,6 +12,7 @@ Units: metres for coordinates, points (trees) per m^2 for intensities.
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -19,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .._random import generator
 from .._validate import finite, integer, positive_scalar, real_array
 
 __all__ = [
@@ -48,6 +50,11 @@ PAPER_WINDOW: tuple[float, float, float, float] = (0.0, 20.0, 0.0, 20.0)
 
 #: An intensity: ``f(x, y) -> points per m^2`` on NumPy arrays (or a :class:`RasterIntensity`).
 Intensity = Callable[[np.ndarray, np.ndarray], Any]
+
+# What NumPy and Python say when a function written for scalars is called on arrays.
+_NOT_VECTORISED = re.compile(
+    r"truth value of an array|only (length-1|0-dimensional|integer scalar) arrays? can be"
+)
 
 
 class IPPWarning(UserWarning):
@@ -143,7 +150,18 @@ def _evaluate(intensity: Any, x: np.ndarray, y: np.ndarray) -> np.ndarray:
             "intensity must be a callable f(x, y) -> points per m^2 (or a RasterIntensity); "
             f"got {type(intensity).__name__}"
         )
-    raw = np.asarray(intensity(x, y))
+    try:
+        raw = np.asarray(intensity(x, y))
+    except (TypeError, ValueError) as exc:
+        if not _NOT_VECTORISED.search(str(exc)):
+            raise
+        # A function written for scalars (``if x < 5``, ``math.exp(x)``) fails deep inside
+        # NumPy; say what the intensity must be instead.
+        raise type(exc)(
+            "intensity must take arrays x, y (m) and return an array of the same shape "
+            f"(points per m^2), e.g. with np.where instead of if; calling it on arrays raised: "
+            f"{exc}"
+        ) from exc
     if raw.dtype.kind not in "biuf":
         raise TypeError(f"intensity must return real numbers; got dtype {raw.dtype}")
     try:
@@ -499,7 +517,7 @@ def estimate_lambda_max(
 def sample_ipp(
     intensity: Intensity,
     window: Window,
-    rng: np.random.Generator,
+    rng: np.random.Generator | int | None,
     lambda_max: float | None = None,
 ) -> np.ndarray:
     """Draw one realisation of the IPP with intensity ``lambda`` on ``window``, by thinning.
@@ -512,8 +530,9 @@ def sample_ipp(
         ``UniformIntensity(0.05)``, which pickles).
     window : (xmin, xmax, ymin, ymax) or array_like (k, 2)
         A rectangle, or the vertices of a simple polygon (either orientation), m.
-    rng : numpy.random.Generator
-        The source of randomness, e.g. ``np.random.default_rng(seed)``.
+    rng : numpy.random.Generator, int or None
+        The source of randomness: a Generator (its stream continues), or an int seed (the same
+        points as ``np.random.default_rng(seed)``), or None (fresh entropy).
     lambda_max : float, optional
         An upper bound of ``lambda`` on the window's bounding box, points per m^2. If omitted it
         is estimated by :func:`estimate_lambda_max` (grid maximum times 1.1).
@@ -529,11 +548,7 @@ def sample_ipp(
     estimating ``lambda_max``, on the grid). Warns :class:`IPPWarning` if ``lambda`` exceeds
     ``lambda_max`` at a candidate: the sample then under-represents those places.
     """
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(
-            f"rng must be a numpy.random.Generator; got {type(rng).__name__}. "
-            "Pass np.random.default_rng(seed)."
-        )
+    gen = generator(rng)
     if not callable(intensity):
         raise TypeError(
             "intensity must be a callable f(x, y) -> points per m^2 (or a RasterIntensity); "
@@ -561,8 +576,8 @@ def sample_ipp(
             f"means ~{expected:.3g} candidate points (limit {MAX_CANDIDATES:.3g}); "
             "use a smaller window or a tighter lambda_max"
         )
-    n = int(rng.poisson(expected))
-    u = rng.random((n, 3))
+    n = int(gen.poisson(expected))
+    u = gen.random((n, 3))
     x = xmin + (xmax - xmin) * u[:, 0]
     y = ymin + (ymax - ymin) * u[:, 1]
     inside = np.flatnonzero(w.contains(x, y))
@@ -583,7 +598,7 @@ def sample_ipp(
 
 def draw_tree_positions(
     n_trees: int,
-    rng: np.random.Generator,
+    rng: np.random.Generator | int | None,
     intensity: Any = None,
     window: Any = PAPER_WINDOW,
     max_rounds: int = 100_000,
@@ -596,13 +611,15 @@ def draw_tree_positions(
     with density ``lambda / integral(lambda)``, and which points are kept depends on the counts
     only, so this is exactly the IPP conditioned on ``N = n_trees`` (Table 1 needs T trees; an
     unconditioned draw has a Poisson number of them, 6.6 on average for the paper's intensity).
+    ``rng`` is a Generator, an int seed or None, as for :func:`sample_ipp`.
     """
     integer(n_trees, "n_trees", 1)
+    gen = generator(rng)
     lam = paper_intensity() if intensity is None else intensity
     got: list[np.ndarray] = []
     have = 0
     for _ in range(int(max_rounds)):
-        pts = sample_ipp(lam, window, rng)
+        pts = sample_ipp(lam, window, gen)
         got.append(pts)
         have += len(pts)
         if have >= n_trees:
