@@ -349,6 +349,40 @@ def test_unclosed_open_bracket_raises_with_position():
         turtle("F[+F")
 
 
+def test_a_position_that_overflows_float64_is_refused_naming_the_segment():
+    with pytest.raises(ValueError, match=r"not finite at the segment 'F' at position 8"):
+        turtle("F(1e308)F(1e308)")
+
+
+def test_a_mark_whose_position_overflows_float64_is_refused_naming_it():
+    with pytest.raises(ValueError, match=r"not finite at the mark 'B' at position 16"):
+        turtle("f(1e308)f(1e308)B", marks="B")
+
+
+@pytest.mark.parametrize("name", ["step", "width", "width_decrement"])
+@pytest.mark.parametrize("value", [0.0, -1.0])
+def test_a_step_width_or_width_decrement_not_above_zero_is_refused_by_name(name, value):
+    with pytest.raises(ValueError, match=f"{name} must be finite and > 0"):
+        turtle("F!F", **{name: value})
+
+
+@pytest.mark.parametrize("width", ["0", "-1"])
+def test_a_width_module_not_above_zero_is_refused_naming_its_position(width):
+    with pytest.raises(ValueError, match=rf"the width !\({width}.0\) at position 1 must be > 0"):
+        turtle(f"F!({width})F")
+
+
+@pytest.mark.parametrize("length", ["0", "-1"])
+def test_a_segment_of_length_not_above_zero_is_refused_naming_its_position(length):
+    with pytest.raises(ValueError, match=rf"F\({length}.0\) at position 1 must have a length > 0"):
+        turtle(f"FF({length})")
+
+
+def test_widths_that_underflow_to_zero_are_refused_naming_the_segment():
+    with pytest.raises(ValueError, match=r"'F' at position 1001 \(segment 1\) underflows to 0"):
+        turtle("F" + "!" * 1000 + "F", width_decrement=0.25)
+
+
 def test_probabilities_not_summing_to_one_raise():
     with pytest.raises(ValueError, match="sum to 0.9"):
         LSystem("F", {"F": [(0.5, "F"), (0.4, "FF")]})

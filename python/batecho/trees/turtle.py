@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import finite_scalar, point3
+from .._validate import finite_scalar, point3, positive_scalar
 from .lsystem import parse_modules
 
 __all__ = [
@@ -161,17 +161,26 @@ def turtle(
     normalised: its length scales the effect). Gravity is ``T = (0, 0, -1)``.
 
     The turtle starts at ``origin`` with heading ``heading`` (default +z) and up ``up``
-    (default +x; orthogonalised against the heading). Unbalanced brackets raise ValueError.
+    (default +x; orthogonalised against the heading).
+
+    Refused with ValueError, by name: a ``step``, ``width`` or ``width_decrement`` that is not
+    finite and > 0, an ``F(l)`` with ``l <= 0`` or a ``!(w)`` with ``w <= 0`` (by position),
+    unbalanced brackets, and a string whose segments or marks leave float64 (an infinite
+    position from lengths near 1e308) or whose widths underflow to 0.
     """
     mods = parse_modules(string)
     delta = math.radians(finite_scalar(angle_deg, "angle_deg"))
-    step = finite_scalar(step, "step")
-    w = finite_scalar(width, "width")
-    wdec = finite_scalar(width_decrement, "width_decrement")
+    step = positive_scalar(step, "step")
+    w = positive_scalar(width, "width")
+    wdec = positive_scalar(width_decrement, "width_decrement")
     e = finite_scalar(elasticity, "elasticity")
     tvec = None
     if tropism is not None and e != 0.0:
         tvec = point3(tropism, "tropism")
+        if not math.isfinite(e * float(np.linalg.norm(tvec))):
+            raise ValueError(
+                f"elasticity * |tropism| must be finite, got {e!r} * {np.linalg.norm(tvec)!r}"
+            )
     pos = point3(origin, "origin")
     h = _unit(heading, "heading")
     u = np.array(up, dtype=np.float64).reshape(-1) if np.shape(up) == (3,) else None
@@ -207,6 +216,10 @@ def turtle(
     for sym, params, where in mods:
         if sym == "F" or sym == "f":
             length = params[0] if params else step
+            if length <= 0 and sym == "F":
+                raise ValueError(
+                    f"the segment F({length!r}) at position {where} must have a length > 0"
+                )
             nx = px + length * frame[0]
             ny = py + length * frame[1]
             nz = pz + length * frame[2]
@@ -245,6 +258,8 @@ def turtle(
                 frame[8],
             )
         elif sym == "!":
+            if params and params[0] <= 0:
+                raise ValueError(f"the width !({params[0]!r}) at position {where} must be > 0")
             w = params[0] if params else w * wdec
         elif sym == "$":
             frame = _roll_horizontal(frame)
@@ -259,6 +274,8 @@ def turtle(
 
     seg = np.array(rows, dtype=np.float64).reshape(len(rows), 15)
     mk = np.array(mk_rows, dtype=np.float64).reshape(len(mk_rows), 12)
+    seg_widths = np.array(widths, dtype=np.float64)
+    _check_finite(seg, mk, seg_widths, mods, marks_set)
     marks_out = Marks(
         symbols=np.array(mk_sym, dtype="<U1"),
         params=mk_par,
@@ -272,7 +289,7 @@ def turtle(
     return Segments(
         starts=seg[:, 0:3].copy(),
         ends=seg[:, 3:6].copy(),
-        widths=np.array(widths, dtype=np.float64),
+        widths=seg_widths,
         depth=np.array(depths, dtype=np.int64),
         headings=seg[:, 6:9].copy(),
         lefts=seg[:, 9:12].copy(),
@@ -282,6 +299,40 @@ def turtle(
 
 
 Frame = tuple[float, float, float, float, float, float, float, float, float]
+
+
+def _nth_position(mods: list[Any], symbols: Any, k: int) -> tuple[str, int]:
+    """The symbol and string position of the ``k``-th module whose symbol is in ``symbols``."""
+    n = -1
+    for sym, _, where in mods:
+        if sym in symbols:
+            n += 1
+            if n == k:
+                return sym, where
+    raise AssertionError("fewer modules than rows")  # pragma: no cover
+
+
+def _check_finite(
+    seg: np.ndarray, mk: np.ndarray, widths: np.ndarray, mods: list[Any], marks: set[str]
+) -> None:
+    """Refuse segments or marks that left float64 (lengths near 1e308 add up to inf) and
+    widths that underflowed to 0, naming the module that drew them."""
+    for rows, symbols, what in ((seg, "F", "segment"), (mk, marks, "mark")):
+        bad = ~np.isfinite(rows).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            sym, where = _nth_position(mods, symbols, k)
+            raise ValueError(
+                f"the turtle's position is not finite at the {what} {sym!r} at position {where} "
+                f"({what} {k}): the lengths before it add up beyond float64"
+            )
+    if len(widths) and not (widths > 0).all():
+        k = int(np.argmax(~(widths > 0)))
+        _, where = _nth_position(mods, "F", k)
+        raise ValueError(
+            f"the width of the segment 'F' at position {where} (segment {k}) underflows to 0; "
+            "use fewer '!' or a larger width_decrement"
+        )
 
 
 def _turn(f: Frame, axis: str, c: float, s: float) -> Frame:
