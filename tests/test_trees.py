@@ -19,6 +19,7 @@ matplotlib.use("Agg")
 
 import batecho
 from batecho.trees import (
+    DEFAULT_LEAF_PATTERNS,
     REFERENCE_TREE,
     Tree,
     grow_lsystem_tree,
@@ -439,6 +440,22 @@ def test_tree_obj_round_trip_keeps_leaves_and_bark(tree, tmp_path):
     assert tri0.shape == tri1.shape and np.allclose(tri0, tri1, atol=1e-12)
     assert back.branch_names == tree.branch_names
     assert np.array_equal(back.leaf_branch, tree.leaf_branch)
+
+
+def test_load_tree_refuses_a_file_without_leaf_faces_naming_the_file_and_patterns(tmp_path):
+    path = tmp_path / "bark.obj"
+    path.write_text("o trunk\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.warns(batecho.ObjWarning, match="no leaf faces"):
+        with pytest.raises(ValueError, match="bark.obj: no leaf faces") as err:
+            load_tree(path)
+    assert str(list(DEFAULT_LEAF_PATTERNS)) in str(err.value)
+
+
+def test_the_trees_guide_states_the_default_leaf_patterns_and_refusal_of_a_leafless_file():
+    guide = " ".join((ROOT / "docs" / "guide" / "trees.md").read_text().split())
+    named = ", ".join(f'"{p}"' for p in DEFAULT_LEAF_PATTERNS[:-1])
+    assert f'{named} or "{DEFAULT_LEAF_PATTERNS[-1]}"' in guide
+    assert "`load_tree` refuses it" in guide
 
 
 def test_load_tree_assigns_leaves_to_nearest_branch_without_names(tmp_path, lsys_tree):

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .objfile import ObjWarning, load_obj
+from .objfile import DEFAULT_LEAF_PATTERNS, ObjWarning, load_obj
 from .reference_tree import nearest
 from .tree import Tree
 
@@ -31,6 +31,7 @@ def load_tree(
     name its group's name contains (as in the ``leaves_branch_00`` groups that
     :meth:`Tree.to_obj` writes), else to the branch of its nearest bark vertex (-1 for the
     trunk). The base is the mean of the lowest trunk (or bark) vertices, at their lowest z.
+    A file without leaf faces is refused (ValueError): a tree needs leaves.
 
     The tree has no woody skeleton (``branches`` is None): its bark is drawn and written, but
     its wood does not echo or block (docs/model.md §9). An :class:`ObjWarning` says so when the
@@ -40,7 +41,12 @@ def load_tree(
         path, leaf_patterns=leaf_patterns, up=up, per=per, scale=scale, transform=transform
     )
     if mesh.leaves is None:
-        raise ValueError(f"{path}: no leaves found (leaf_patterns {leaf_patterns!r})")
+        patterns = list(DEFAULT_LEAF_PATTERNS if leaf_patterns is None else leaf_patterns)
+        raise ValueError(
+            f"{path}: no leaf faces (no object, group or material name matches leaf_patterns "
+            f"{patterns}), and a tree needs leaves; pass leaf_patterns naming them, or read "
+            "the bark alone with load_obj"
+        )
     names = list(mesh.group_names)
     fg = mesh.bark_face_groups
     present = [int(g) for g in np.unique(fg)]
