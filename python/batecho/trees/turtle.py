@@ -164,7 +164,7 @@ def turtle(
     (default +x; orthogonalised against the heading).
 
     Refused with ValueError, by name: a ``step``, ``width`` or ``width_decrement`` that is not
-    finite and > 0, an ``F(l)`` with ``l <= 0`` or a ``!(w)`` with ``w <= 0`` (by position),
+    finite and > 0, an ``F(l)`` with ``l < 0`` or a ``!(w)`` with ``w <= 0`` (by position),
     unbalanced brackets, and a string whose segments or marks leave float64 (an infinite
     position from lengths near 1e308) or whose widths underflow to 0.
     """
@@ -216,9 +216,9 @@ def turtle(
     for sym, params, where in mods:
         if sym == "F" or sym == "f":
             length = params[0] if params else step
-            if length <= 0 and sym == "F":
+            if length < 0 and sym == "F":
                 raise ValueError(
-                    f"the segment F({length!r}) at position {where} must have a length > 0"
+                    f"the segment F({length!r}) at position {where} must have a length >= 0"
                 )
             nx = px + length * frame[0]
             ny = py + length * frame[1]
