@@ -4,12 +4,15 @@ stochastic, parametric), the ABOP 3-D turtle and the trunk branching."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import batecho
+from batecho._resources import SlowWarning
 from batecho.trees.branching import Branching, trunk_branching
 from batecho.trees.lsystem import LSystem, Module, module_string, parse_modules
 from batecho.trees.turtle import (
@@ -332,6 +335,70 @@ def test_parse_modules_reports_symbols_parameters_and_positions():
         Module("+", (-30.0,), 7),
         Module("A", (1.0, 0.002), 13),
     ]
+
+
+# ---------------------------------------------------------------------------------------------
+# Size: derivations that cannot fit are refused
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def one_mib_limit():
+    batecho.set_memory_limit(2**20)
+    yield
+    batecho.set_memory_limit(None)
+
+
+def _no_rewriting(system, monkeypatch):
+    def rewrite(*args):
+        raise AssertionError("a step was rewritten")
+
+    monkeypatch.setattr(system, "_rewrite", rewrite)
+
+
+def test_a_derivation_too_long_for_memory_is_refused_before_it_starts(monkeypatch):
+    system = LSystem("F", {"F": "F" * 10})
+    _no_rewriting(system, monkeypatch)
+    with pytest.raises(MemoryError, match=r"LSystem.derive\(n=12\) .* characters .* memory limit"):
+        system.derive(12)
+
+
+def test_a_branching_derivation_of_forty_steps_is_refused_at_once(monkeypatch):
+    system = LSystem("F", {"F": "F[+F]F[-F]F"})
+    _no_rewriting(system, monkeypatch)
+    with pytest.raises(MemoryError, match=r"derive\(n=40\)"):
+        system.derive(40)
+
+
+def test_the_bound_on_a_deterministic_derivation_is_its_exact_length(one_mib_limit):
+    # algae strings have Fibonacci lengths; a step holds the string and the one before it:
+    # 317811 + 514229 bytes fit 1 MiB, 514229 + 832040 do not
+    algae = LSystem("a", {"a": "ab", "b": "a"})
+    assert len(algae.derive(27)) == 514229
+    with pytest.raises(MemoryError, match=r"8.32e\+05 characters at step 28"):
+        algae.derive(28)
+
+
+def test_a_stochastic_derivation_is_bounded_by_each_symbols_longest_successor(monkeypatch):
+    system = LSystem("F", {"F": [(0.9, "F"), (0.1, "F" * 10)]}, seed=1)
+    _no_rewriting(system, monkeypatch)
+    with pytest.raises(MemoryError, match=r"derive\(n=12\)"):
+        system.derive(12)
+
+
+def test_a_callable_rule_that_outgrows_memory_is_refused_as_it_rewrites(one_mib_limit):
+    system = LSystem("A", {"A": lambda: "A" * 10})
+    with pytest.raises(MemoryError, match=r"derive\(n=10\) \(step \d"):
+        system.derive(10)
+
+
+def test_a_derivation_of_minutes_warns_before_it_starts(monkeypatch):
+    system = LSystem("F", {"F": "F"})
+    _no_rewriting(system, monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SlowWarning)
+        with pytest.raises(SlowWarning, match=r"derive\(n=1000000000\) .* min"):
+            system.derive(10**9)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,11 +12,13 @@ from __future__ import annotations
 import math
 import numbers
 import re
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple, cast
 
 import numpy as np
 
+from .._resources import SLOW_S, SlowWarning, check_memory, memory_limit
 from .._validate import integer
 
 __all__ = [
@@ -32,6 +34,16 @@ __all__ = [
 
 #: Tolerance on the sum of the probabilities of a stochastic rule.
 PROBABILITY_TOLERANCE = 1e-9
+
+#: Memory per module of a string rewritten module by module (bytes): its parsed token and its
+#: piece of the new string (strings with parameters, or rules that are not all deterministic
+#: strings); a string rewritten by ``str.translate`` needs only its characters.
+BYTES_PER_MODULE = 200.0
+#: Time per module rewritten module by module, and per character translated (s).
+S_PER_MODULE = 2e-6
+S_PER_CHAR = 1e-8
+#: Time per rewriting step, whatever the string (s).
+S_PER_STEP = 2e-7
 
 Successor = str | Callable[..., str | None]
 RuleSpec = Successor | Sequence[tuple[float, Successor]]
@@ -293,17 +305,135 @@ class LSystem:
         """The string after ``n`` parallel rewriting steps (``n = 0`` gives the axiom).
 
         ``rng`` (int or Generator), when given, is used instead of the system's generator.
+
+        The string must fit :func:`batecho.memory_limit`: with string rules its length after
+        every step is bounded before the first (from each symbol's longest successor; exact for
+        deterministic rules) and a derivation that cannot fit raises MemoryError at once, one
+        expected to rewrite for over a minute warns (:class:`batecho._resources.SlowWarning`);
+        with callable rules, whose results are known only when called, MemoryError is raised
+        during the step that would outgrow the limit.
         """
         steps = integer(n, "n", 0)
         gen = self._rng if rng is None else np.random.default_rng(rng)
+        limit = memory_limit()
+        # String rules are bounded before the first step; a callable's result only when it
+        # is called, so a system with callables is checked as it rewrites.
+        watch = None
+        if self._string_rules:
+            self._guard(steps, limit)
         s = self._axiom
-        for _ in range(steps):
-            s = self._rewrite(s, gen)
+        for k in range(steps):
+            if not self._string_rules:
+                watch = (steps, k, limit)
+            s = self._rewrite(s, gen, watch)
         return s
 
-    def _rewrite(self, s: str, gen: np.random.Generator) -> str:
+    @property
+    def _string_rules(self) -> bool:
+        return all(isinstance(x, str) for r in self._rules.values() for x in r.successors)
+
+    def _guard(self, steps: int, limit: int) -> None:
+        """Before deriving with string rules: the string's length after each step, bounded
+        from each symbol's longest successor (exact for deterministic rules) without building
+        it, must fit the memory limit; a derivation of more than a minute warns first."""
+        texts = [self._axiom, *(cast(str, x) for r in self._rules.values() for x in r.successors)]
+        width = 1 if all(t.isascii() for t in texts) else 4  # bytes per character, at most
+        slow = self._table is None or any("(" in t for t in texts)
+        ruled = set(self._rules)
+
+        def parts(text: str) -> tuple[dict[str, int], int, int, int]:
+            """Ruled modules by symbol, their characters, the other characters and tokens."""
+            counts: dict[str, int] = {}
+            r_chars = 0
+            other = 0
+            for sym, _, start, end in _scan(text):
+                if sym in ruled:
+                    counts[sym] = counts.get(sym, 0) + 1
+                    r_chars += end - start
+                else:
+                    other += 1
+            return counts, r_chars, len(text) - r_chars, other
+
+        # per ruled symbol, the most each of its successors gives of every part
+        grow: dict[str, tuple[dict[str, int], int, int, int]] = {}
+        for sym, rule in self._rules.items():
+            alts = [parts(cast(str, x)) for x in rule.successors]
+            most: dict[str, int] = {}
+            for counts, _, _, _ in alts:
+                for t, c in counts.items():
+                    most[t] = max(most.get(t, 0), c)
+            grow[sym] = (
+                most,
+                max(a[1] for a in alts),
+                max(a[2] for a in alts),
+                max(a[3] for a in alts),
+            )
+        counts, r_chars, f_chars, f_tokens = parts(self._axiom)
+        peak = 0.0
+        seconds = 0.0
+        k = 0
+        while k < steps:
+            length = r_chars + f_chars
+            tokens = sum(counts.values()) + f_tokens
+            new: dict[str, int] = {}
+            nr, nf, nt = 0, f_chars, f_tokens
+            for sym, c in counts.items():
+                most, gr, gf, gt = grow[sym]
+                for t, m in most.items():
+                    new[t] = new.get(t, 0) + c * m
+                nr += c * gr
+                nf += c * gf
+                nt += c * gt
+            step_s = S_PER_STEP + (tokens * S_PER_MODULE if slow else length * S_PER_CHAR)
+            if new == counts and nr == r_chars:
+                # the same ruled modules from now on: each step adds the same characters
+                left = steps - k
+                d_chars, d_tokens = nf - f_chars, nt - f_tokens
+                last = length + (left - 1) * d_chars
+                last_tokens = tokens + (left - 1) * d_tokens
+                peak = max(
+                    peak, width * (2 * last + d_chars) + slow * last_tokens * BYTES_PER_MODULE
+                )
+                slope = S_PER_MODULE * d_tokens if slow else S_PER_CHAR * d_chars
+                seconds += left * step_s + slope * left * (left - 1) / 2
+                k = steps
+                break
+            counts, r_chars, f_chars, f_tokens = new, nr, nf, nt
+            k += 1
+            need = width * (length + r_chars + f_chars) + slow * tokens * BYTES_PER_MODULE
+            peak = max(peak, need)
+            seconds += step_s
+            if need > limit:
+                break
+        check_memory(
+            peak,
+            f"LSystem.derive(n={steps}) (a string of about {(r_chars + f_chars):.3g} characters "
+            f"at step {k})",
+            "derive fewer steps (n), or use rules that grow less",
+        )
+        if seconds > SLOW_S:
+            warnings.warn(
+                f"LSystem.derive(n={steps}) rewrites for about {seconds / 60:.0f} min; derive "
+                "fewer steps (n)",
+                SlowWarning,
+                stacklevel=3,
+            )
+
+    def _rewrite(
+        self, s: str, gen: np.random.Generator, watch: tuple[int, int, int] | None = None
+    ) -> str:
+        """One parallel rewriting step. With ``watch`` = (steps, step, limit), refuse with
+        MemoryError as soon as the step would outgrow ``limit`` bytes."""
         if self._table is not None and "(" not in s:
             return s.translate(self._table)
+        room = math.inf
+        if watch is not None:
+            steps, step, limit = watch
+            # tokens: at most one per character, less 3 per '(' and 2 per ',' ("X(a,b)")
+            most = len(s) - 3 * s.count("(") - 2 * s.count(",")
+            room = limit - len(s) - most * BYTES_PER_MODULE
+            if room < 0:
+                self._refuse(limit - room, steps, step, "")
         tokens = _scan(s)
         u = gen.random(len(tokens)) if self._stochastic else None
         rules = self._rules
@@ -332,5 +462,19 @@ class LSystem:
                         f" returned the malformed successor {result!r}: {exc}"
                     ) from None
                 succ = result
+                room -= BYTES_PER_MODULE
+            room -= len(succ)
+            if room < 0:
+                assert watch is not None
+                where = f", at the module {s[start:end]!r} at position {start}"
+                self._refuse(watch[2] - room, watch[0], watch[1], where)
             out.append(succ)
         return "".join(out)
+
+    @staticmethod
+    def _refuse(nbytes: float, steps: int, step: int, where: str) -> None:
+        check_memory(
+            nbytes,
+            f"LSystem.derive(n={steps}) (step {step + 1} of the rewriting{where})",
+            "derive fewer steps (n), or use rules that grow less",
+        )
