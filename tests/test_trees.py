@@ -8,6 +8,7 @@ import importlib.util
 import inspect
 import math
 import sys
+import warnings
 from pathlib import Path
 
 import matplotlib
@@ -18,6 +19,7 @@ from scipy.spatial import cKDTree
 matplotlib.use("Agg")
 
 import batecho
+from batecho._resources import SlowWarning
 from batecho.trees import (
     DEFAULT_LEAF_PATTERNS,
     REFERENCE_TREE,
@@ -27,6 +29,7 @@ from batecho.trees import (
     load_reference,
     load_tree,
 )
+from batecho.trees.branching import trunk_branching
 from batecho.trees.objfile import load_obj
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -368,6 +371,25 @@ def test_a_negative_seed_is_refused_naming_rng(grow):
         grow(-1)
 
 
+def test_a_tree_of_a_billion_branches_is_refused_before_it_grows():
+    with pytest.raises(MemoryError, match=r"n_branches = 1000000000 .* memory limit"):
+        grow_tree(0, n_branches=10**9)
+
+
+def test_a_tree_whose_branching_takes_minutes_warns_before_it_grows():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SlowWarning)
+        with pytest.raises(SlowWarning, match=r"n_branches = 3000 takes about \d+ min"):
+            grow_tree(0, n_branches=3000)
+
+
+def test_a_trunk_branching_of_minutes_warns_before_it_starts():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SlowWarning)
+        with pytest.raises(SlowWarning, match=r"n_branches = 100000 takes about \d+ min"):
+            trunk_branching(0, n_branches=10**5)
+
+
 # ---------------------------------------------------------------------------------------------
 # grow_lsystem_tree
 # ---------------------------------------------------------------------------------------------
@@ -412,6 +434,31 @@ def test_lsystem_tree_same_seed_identical_and_plausible_height(lsys_tree):
     again = grow_lsystem_tree(np.random.default_rng(3))
     assert np.array_equal(again.leaves.centers, lsys_tree.leaves.centers)
     assert 5.0 <= lsys_tree.height <= 10.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "named"),
+    [
+        ({"laterals_per_node": 50}, "laterals_per_node = 50"),
+        ({"n_levels": 30}, "n_levels = 30"),
+        ({"n_levels": 10**9}, "n_levels = 1000000000"),
+    ],
+)
+def test_an_lsystem_tree_too_large_for_memory_is_refused_before_it_grows(kwargs, named):
+    with pytest.raises(MemoryError, match=rf"{named} .* leaves\) needs about .* memory limit"):
+        grow_lsystem_tree(1, **kwargs)
+
+
+def test_an_lsystem_tree_of_minutes_warns_before_it_grows():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SlowWarning)
+        with pytest.raises(SlowWarning, match=r"n_levels = 2500 .* takes about \d+ min"):
+            grow_lsystem_tree(1, laterals_per_node=0, n_levels=2500)
+
+
+def test_an_lsystem_tree_whose_widths_underflow_is_refused_naming_width_contraction():
+    with pytest.raises(ValueError, match=r"width_contraction\*\*n_levels = .* leaves float64"):
+        grow_lsystem_tree(1, laterals_per_node=0, n_levels=1600)
 
 
 def test_lsystem_tree_rejects_bad_parameters():

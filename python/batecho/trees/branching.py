@@ -5,16 +5,30 @@ suggested lengths."""
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from .._resources import SLOW_S, SlowWarning, check_memory
 from .._validate import finite_scalar, integer, point3
 from .lsystem import LSystem, SeedLike
 from .turtle import turtle
 
 __all__ = ["Branching", "trunk_branching"]
+
+#: Memory per first-level branch of a trunk's branching (bytes): its bud's modules in the
+#: L-system string and the turtle's mark.
+BYTES_PER_BUD = 4096.0
+#: Time per bud per rewriting step (s): each of the ``n / buds_per_node`` steps rewrites the
+#: whole string grown so far, so a branching takes about this times ``n^2 / buds_per_node``.
+S_PER_BUD_STEP = 8e-6
+
+
+def branching_seconds(n_branches: int, buds_per_node: int) -> float:
+    """About how long (s) :func:`trunk_branching` takes for ``n_branches``."""
+    return S_PER_BUD_STEP * n_branches * -(-n_branches // buds_per_node)
 
 
 @dataclass(frozen=True)
@@ -96,6 +110,10 @@ def trunk_branching(
     internode_jitter, length_jitter : float
         Relative half-widths of uniform jitters on internode lengths (< 0.5) and branch lengths
         (< 1).
+
+    The time grows as ``n_branches^2 / buds_per_node`` (each step rewrites the whole string):
+    a branching of minutes warns first (:class:`batecho._resources.SlowWarning`), and one too
+    large for :func:`batecho.memory_limit` raises MemoryError.
     """
     gen = np.random.default_rng(rng)
     height = finite_scalar(trunk_height, "trunk_height")
@@ -114,6 +132,19 @@ def trunk_branching(
         raise ValueError(f"first_branch_height must be in [0, trunk_height={height}) m, got {h0!r}")
     n = integer(n_branches, "n_branches", 0)
     m = integer(buds_per_node, "buds_per_node", 1)
+    check_memory(
+        n * BYTES_PER_BUD,
+        f"a trunk branching of n_branches = {n}",
+        "use fewer n_branches",
+    )
+    seconds = branching_seconds(n, m)
+    if seconds > SLOW_S:
+        warnings.warn(
+            f"a trunk branching of n_branches = {n} takes about {seconds / 60:.0f} min "
+            f"(a time that grows as n_branches^2 / buds_per_node); use fewer n_branches",
+            SlowWarning,
+            stacklevel=2,
+        )
     if not 0 < theta0 < 180:
         raise ValueError(f"branching_angle_deg must be in (0, 180), got {branching_angle_deg!r}")
     if r <= 0:

@@ -42,14 +42,46 @@ from typing import Any
 import numpy as np
 
 from .._random import generator, seed_record
+from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
 from .._validate import finite_scalar, frozen, integer, point3, positive_scalar
 from ._shape import point_at, rodrigues, segment_of, transport
-from .branching import trunk_branching
+from .branching import branching_seconds, trunk_branching
 from .objfile import Mesh
 from .reference_tree import BranchTemplate, Placed, ReferenceTree, assemble, load_reference
 from .tree import BranchLayout, Tree
 
 _Z = np.array([0.0, 0.0, 1.0])
+
+#: Memory per bark vertex or skeleton point of a grown branch (bytes): the template's hanging
+#: arrays, the deformed copy and the tree's arrays (leaves count ``BYTES_PER_LEAF``).
+BYTES_PER_POINT = 100.0
+#: Time to grow one first-level branch (s), besides the trunk's branching.
+S_PER_BRANCH = 0.01
+
+
+def _guard_tree(ref: ReferenceTree, nb: int, buds_per_node: Any) -> None:
+    """Before growing: ``nb`` copies of the reference's largest branch must fit the memory
+    limit, and a growth of more than a minute warns first."""
+    per_branch = max(
+        len(b.leaf_radii) * BYTES_PER_LEAF
+        + (len(b.vertices) + len(b.skeleton_points)) * BYTES_PER_POINT
+        for b in ref.branches
+    )
+    check_memory(
+        nb * per_branch,
+        f"a tree of n_branches = {nb} (each up to {per_branch / 2**20:.2g} MiB)",
+        "use fewer n_branches",
+    )
+    m = buds_per_node if isinstance(buds_per_node, int) and buds_per_node >= 1 else 1
+    trunk_s = branching_seconds(nb, m)
+    seconds = nb * S_PER_BRANCH + trunk_s
+    if seconds > SLOW_S >= trunk_s:  # (a slow branching warns for itself)
+        warnings.warn(
+            f"growing a tree of n_branches = {nb} takes about {seconds / 60:.0f} min; use "
+            "fewer n_branches",
+            SlowWarning,
+            stacklevel=3,
+        )
 
 
 def _bend_integral(
@@ -190,6 +222,10 @@ def grow_tree(
     Random draws, in this order (always all of them, whatever the sds): the L-system, the
     reference branch indices (``branch_choice="random"`` only), ``z`` for the lengths (b,),
     the bends (b, 2), then per branch the slides (one per unit of its reference branch).
+
+    A tree of more branches than fit :func:`batecho.memory_limit` (each counted as the
+    reference's largest) raises MemoryError before it grows; one of minutes warns first
+    (:class:`batecho._resources.SlowWarning`).
     """
     gen = generator(rng)
     record = seed_record(rng, gen)
@@ -230,6 +266,7 @@ def grow_tree(
     for key in ("trunk_height", "n_branches", "first_branch_height", "base", "rng"):
         if key in extra:
             raise ValueError(f"give {key} to grow_tree itself, not in lsystem")
+    _guard_tree(ref, nb, extra.get("buds_per_node", 1))
     branching = trunk_branching(
         gen,
         trunk_height=trunk_h,

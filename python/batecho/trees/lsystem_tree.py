@@ -5,19 +5,66 @@ nodes."""
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from .._random import generator, seed_record
+from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
 from .._validate import finite_scalar, frozen, integer, point3, positive_scalar
 from ._shape import unit_rows
 from .branches import Branches
 from .leaves import Leaves
-from .lsystem import LSystem
+from .lsystem import S_PER_MODULE, LSystem
 from .tree import BranchLayout, Tree
 from .turtle import turtle
+
+#: Memory per segment of an L-system tree (bytes): its modules in the string and the turtle's
+#: rows; and per side of its bark tube (vertices, faces and their working arrays).
+BYTES_PER_SEGMENT = 1000.0
+BYTES_PER_TUBE_SIDE = 250.0
+#: Time per segment (s), its leaves and bark included, besides the rewriting.
+S_PER_SEGMENT = 1e-4
+
+
+def _power(base: float, exponent: int) -> float:
+    try:
+        return base**exponent
+    except OverflowError:
+        return math.inf
+
+
+def _guard_tree(levels: int, n_lat: int, n_nodes: int, per_node: int, sides: int) -> None:
+    """Before growing: the tree's branches, segments and leaves (from the parameters) must fit
+    the memory limit, and a growth of more than a minute warns first."""
+    q = n_lat + 1.0
+    top = _power(q, levels + 1)
+    branches = levels + 1.0 if n_lat == 0 else (top - 1.0) / n_lat
+    segments = 1.0 + n_nodes * (branches - 1.0)
+    leaves = per_node * n_nodes * (branches - 1.0)
+    check_memory(
+        leaves * BYTES_PER_LEAF + segments * (BYTES_PER_SEGMENT + sides * BYTES_PER_TUBE_SIDE),
+        f"an L-system tree of n_levels = {levels} and laterals_per_node = {n_lat} "
+        f"({branches:.3g} branches, {leaves:.3g} leaves)",
+        "use fewer n_levels or laterals_per_node (or leaf_nodes_per_branch, leaves_per_node)",
+    )
+    # Each of the levels + 1 rewriting steps reads the whole string grown so far: the
+    # branches of level j are read levels + 1 - j times.
+    if n_lat == 0:
+        reads = (levels + 1.0) * (levels + 2.0) / 2.0
+    else:
+        reads = (q * top - (levels + 2.0) * q + (levels + 1.0)) / (q - 1.0) ** 2
+    modules_per_branch = 4 + 3 * n_nodes + 5 * n_lat
+    seconds = segments * S_PER_SEGMENT + reads * modules_per_branch * S_PER_MODULE
+    if seconds > SLOW_S:
+        warnings.warn(
+            f"growing an L-system tree of n_levels = {levels} and laterals_per_node = {n_lat} "
+            f"takes about {seconds / 60:.0f} min; use fewer n_levels or laterals_per_node",
+            SlowWarning,
+            stacklevel=3,
+        )
 
 
 def _tubes(
@@ -85,6 +132,11 @@ def grow_lsystem_tree(
     ``trunk_radius * width_contraction**level`` m; the turtle's segments with those radii are
     the tree's woody skeleton (``Tree.branches``). ``angle_jitter_deg`` (uniform half-width) and
     ``length_jitter`` (relative) randomise the angles and lengths.
+
+    Before growing, the tree's size from its parameters must fit :func:`batecho.memory_limit`
+    (MemoryError naming ``n_levels`` and ``laterals_per_node``), a growth of minutes warns
+    (:class:`batecho._resources.SlowWarning`), and widths and lengths after ``n_levels``
+    contractions must stay within float64 (ValueError).
     """
     gen = generator(rng)
     record = seed_record(rng, gen)
@@ -115,6 +167,20 @@ def grow_lsystem_tree(
     wc = positive_scalar(width_contraction, "width_contraction", strict=True)
     sides = integer(bark_sides, "bark_sides", 3)
     b0 = point3(base, "base")
+    _guard_tree(levels, n_lat, n_nodes, per_node, sides)
+    if w0 * _power(min(wc, 1.0), levels) == 0.0 or not math.isfinite(
+        w0 * _power(max(wc, 1.0), levels)
+    ):
+        raise ValueError(
+            f"trunk_radius * width_contraction**n_levels = {w0} * {wc}**{levels} leaves float64 "
+            "(0 or inf); use fewer n_levels or a width_contraction nearer 1"
+        )
+    longest = l0 * _power(max(c_lat, c_ctr, 1.0) * (1.0 + ljit), levels)
+    if not math.isfinite(longest * (levels + 1)):
+        raise ValueError(
+            f"initial_length * contraction**n_levels = {l0} * {max(c_lat, c_ctr)}**{levels} "
+            "leaves float64; use fewer n_levels or contractions of at most 1"
+        )
 
     counter = [0]
 
