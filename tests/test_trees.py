@@ -461,6 +461,13 @@ def test_an_lsystem_tree_whose_widths_underflow_is_refused_naming_width_contract
         grow_lsystem_tree(1, laterals_per_node=0, n_levels=1600)
 
 
+def test_an_lsystem_tree_whose_segments_shrink_below_a_nanometre_is_refused_naming_n_levels():
+    with pytest.raises(
+        ValueError, match=r"contraction\*\*n_levels = 2.0 \* 0.62\*\*500 gives segments"
+    ):
+        grow_lsystem_tree(1, laterals_per_node=0, n_levels=500)
+
+
 def test_lsystem_tree_rejects_bad_parameters():
     with pytest.raises(ValueError):
         grow_lsystem_tree(0, contraction=-0.5)

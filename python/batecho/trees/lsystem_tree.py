@@ -29,6 +29,11 @@ BYTES_PER_TUBE_SIDE = 250.0
 S_PER_SEGMENT = 1e-4
 
 
+#: The shortest segment an L-system tree may have (m): far below any twig, far above the
+#: float64 spacing of positions a few metres from the origin (about 1e-15 m).
+MIN_SEGMENT_M = 1e-9
+
+
 def _power(base: float, exponent: int) -> float:
     try:
         return base**exponent
@@ -180,6 +185,14 @@ def grow_lsystem_tree(
         raise ValueError(
             f"initial_length * contraction**n_levels = {l0} * {max(c_lat, c_ctr)}**{levels} "
             "leaves float64; use fewer n_levels or contractions of at most 1"
+        )
+    shortest = l0 * _power(min(c_lat, c_ctr, 1.0), levels)
+    if not shortest >= MIN_SEGMENT_M:
+        raise ValueError(
+            f"initial_length * contraction**n_levels = {l0} * {min(c_lat, c_ctr)}**{levels} "
+            f"gives segments of about {shortest:.3g} m, below {MIN_SEGMENT_M:g} m (their ends "
+            "would not differ in float64 at a tree's size); use fewer n_levels or contractions "
+            "nearer 1"
         )
 
     counter = [0]
