@@ -401,6 +401,14 @@ def test_a_derivation_of_minutes_warns_before_it_starts(monkeypatch):
             system.derive(10**9)
 
 
+def test_a_derivation_of_very_many_steps_warns_before_it_bounds_the_string():
+    system = LSystem("A", {"A": "B", "B": "A"})  # never settles: the bound walks every step
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SlowWarning)
+        with pytest.raises(SlowWarning, match=r"derive\(n=1000000000000\) .* min"):
+            system.derive(10**12)
+
+
 # ---------------------------------------------------------------------------------------------
 # Bad input
 # ---------------------------------------------------------------------------------------------

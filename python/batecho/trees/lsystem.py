@@ -371,6 +371,11 @@ class LSystem:
         counts, r_chars, f_chars, f_tokens = parts(self._axiom)
         peak = 0.0
         seconds = 0.0
+        # (the bound below walks the steps one by one: so many steps are slow whatever the
+        # string, and say so before that walk)
+        warned = steps * S_PER_STEP > SLOW_S
+        if warned:
+            self._warn_slow(steps, steps * S_PER_STEP)
         k = 0
         while k < steps:
             length = r_chars + f_chars
@@ -411,13 +416,17 @@ class LSystem:
             f"at step {k})",
             "derive fewer steps (n), or use rules that grow less",
         )
-        if seconds > SLOW_S:
-            warnings.warn(
-                f"LSystem.derive(n={steps}) rewrites for about {seconds / 60:.0f} min; derive "
-                "fewer steps (n)",
-                SlowWarning,
-                stacklevel=3,
-            )
+        if seconds > SLOW_S and not warned:
+            self._warn_slow(steps, seconds)
+
+    @staticmethod
+    def _warn_slow(steps: int, seconds: float) -> None:
+        warnings.warn(
+            f"LSystem.derive(n={steps}) rewrites for about {seconds / 60:.0f} min; derive "
+            "fewer steps (n)",
+            SlowWarning,
+            stacklevel=4,
+        )
 
     def _rewrite(
         self, s: str, gen: np.random.Generator, watch: tuple[int, int, int] | None = None
