@@ -11,6 +11,7 @@ a large machine, or do the work in pieces.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 from . import _core
@@ -48,6 +49,20 @@ class SlowWarning(UserWarning):
 
 #: A call expected to run longer than this (s) warns with :class:`SlowWarning` first.
 SLOW_S = 60.0
+
+
+def warn_if_slow(seconds: float, what: str, shorter: str, stacklevel: int = 2) -> bool:
+    """Warn with :class:`SlowWarning` when ``seconds`` (an estimate) is over :data:`SLOW_S`:
+    ``what`` takes about so many minutes, and ``shorter`` says how to make it shorter.
+    ``stacklevel`` as for :func:`warnings.warn` from the caller. Whether it warned."""
+    if not seconds > SLOW_S:
+        return False
+    warnings.warn(
+        f"{what} takes about {seconds / 60:.0f} min; {shorter}",
+        SlowWarning,
+        stacklevel=stacklevel + 1,
+    )
+    return True
 
 
 def memory_limit() -> int:
@@ -98,4 +113,5 @@ __all__ = [
     "human_bytes",
     "memory_limit",
     "set_memory_limit",
+    "warn_if_slow",
 ]

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,7 +30,7 @@ import numpy as np
 
 from .._geometry import rot_z
 from .._random import generator, int_seed, spawn
-from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
+from .._resources import BYTES_PER_LEAF, check_memory, warn_if_slow
 from .._validate import finite_scalar, integer, positive_scalar, vectors
 from ..trees.branches import Branches
 from ..trees.grow import grow_tree
@@ -55,13 +54,12 @@ def guard_forest(t: int, n_grow: int, leaves_per_tree: int, first_s: float) -> N
         f"a forest of {t} trees of about {leaves_per_tree} leaves",
         "use fewer trees (a smaller window or intensity, n_trees) or smaller trees",
     )
-    if n_grow * first_s > SLOW_S:
-        warnings.warn(
-            f"growing {n_grow} trees takes about {n_grow * first_s / 60:.0f} min "
-            f"({first_s:.2g} s for the first); pass variants=k to grow k and reuse them",
-            SlowWarning,
-            stacklevel=4,
-        )
+    warn_if_slow(
+        n_grow * first_s,
+        f"growing {n_grow} trees ({first_s:.2g} s for the first)",
+        "pass variants=k to grow k and reuse them",
+        stacklevel=4,
+    )
 
 
 class Forest:

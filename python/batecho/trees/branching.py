@@ -5,13 +5,12 @@ suggested lengths."""
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._resources import SLOW_S, SlowWarning, check_memory
+from .._resources import check_memory, warn_if_slow
 from .._validate import finite_scalar, integer, point3
 from .lsystem import LSystem, SeedLike
 from .turtle import turtle
@@ -137,14 +136,11 @@ def trunk_branching(
         f"a trunk branching of n_branches = {n}",
         "use fewer n_branches",
     )
-    seconds = branching_seconds(n, m)
-    if seconds > SLOW_S:
-        warnings.warn(
-            f"a trunk branching of n_branches = {n} takes about {seconds / 60:.0f} min "
-            f"(a time that grows as n_branches^2 / buds_per_node); use fewer n_branches",
-            SlowWarning,
-            stacklevel=2,
-        )
+    warn_if_slow(
+        branching_seconds(n, m),
+        f"a trunk branching of n_branches = {n}",
+        "use fewer n_branches (the time grows as n_branches^2 / buds_per_node)",
+    )
     if not 0 < theta0 < 180:
         raise ValueError(f"branching_angle_deg must be in (0, 180), got {branching_angle_deg!r}")
     if r <= 0:

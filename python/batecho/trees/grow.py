@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from .._random import generator, seed_record
-from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
+from .._resources import BYTES_PER_LEAF, SLOW_S, check_memory, warn_if_slow
 from .._validate import finite_scalar, frozen, integer, point3, positive_scalar
 from ._shape import point_at, rodrigues, segment_of, transport
 from .branching import branching_seconds, trunk_branching
@@ -75,12 +75,9 @@ def _guard_tree(ref: ReferenceTree, nb: int, buds_per_node: Any) -> None:
     m = buds_per_node if isinstance(buds_per_node, int) and buds_per_node >= 1 else 1
     trunk_s = branching_seconds(nb, m)
     seconds = nb * S_PER_BRANCH + trunk_s
-    if seconds > SLOW_S >= trunk_s:  # (a slow branching warns for itself)
-        warnings.warn(
-            f"growing a tree of n_branches = {nb} takes about {seconds / 60:.0f} min; use "
-            "fewer n_branches",
-            SlowWarning,
-            stacklevel=3,
+    if trunk_s <= SLOW_S:  # (a slow branching warns for itself)
+        warn_if_slow(
+            seconds, f"growing a tree of n_branches = {nb}", "use fewer n_branches", stacklevel=3
         )
 
 

@@ -12,13 +12,12 @@ from __future__ import annotations
 import math
 import numbers
 import re
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .._resources import SLOW_S, SlowWarning, check_memory, memory_limit
+from .._resources import check_memory, memory_limit, warn_if_slow
 from .._validate import integer
 
 __all__ = [
@@ -44,6 +43,8 @@ S_PER_MODULE = 2e-6
 S_PER_CHAR = 1e-8
 #: Time per rewriting step, whatever the string (s).
 S_PER_STEP = 2e-7
+#: How a slow derivation is made shorter.
+FEWER = "derive fewer steps (n)"
 
 Successor = str | Callable[..., str | None]
 RuleSpec = Successor | Sequence[tuple[float, Successor]]
@@ -373,9 +374,7 @@ class LSystem:
         seconds = 0.0
         # (the bound below walks the steps one by one: so many steps are slow whatever the
         # string, and say so before that walk)
-        warned = steps * S_PER_STEP > SLOW_S
-        if warned:
-            self._warn_slow(steps, steps * S_PER_STEP)
+        warned = warn_if_slow(steps * S_PER_STEP, f"LSystem.derive(n={steps})", FEWER, 3)
         k = 0
         while k < steps:
             length = r_chars + f_chars
@@ -416,17 +415,8 @@ class LSystem:
             f"at step {k})",
             "derive fewer steps (n), or use rules that grow less",
         )
-        if seconds > SLOW_S and not warned:
-            self._warn_slow(steps, seconds)
-
-    @staticmethod
-    def _warn_slow(steps: int, seconds: float) -> None:
-        warnings.warn(
-            f"LSystem.derive(n={steps}) rewrites for about {seconds / 60:.0f} min; derive "
-            "fewer steps (n)",
-            SlowWarning,
-            stacklevel=4,
-        )
+        if not warned:
+            warn_if_slow(seconds, f"LSystem.derive(n={steps})", FEWER, 3)
 
     def _rewrite(
         self, s: str, gen: np.random.Generator, watch: tuple[int, int, int] | None = None

@@ -5,14 +5,13 @@ nodes."""
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from .._random import generator, seed_record
-from .._resources import BYTES_PER_LEAF, SLOW_S, SlowWarning, check_memory
+from .._resources import BYTES_PER_LEAF, check_memory, warn_if_slow
 from .._validate import finite_scalar, frozen, integer, point3, positive_scalar
 from ._shape import unit_rows
 from .branches import Branches
@@ -63,13 +62,12 @@ def _guard_tree(levels: int, n_lat: int, n_nodes: int, per_node: int, sides: int
         reads = (q * top - (levels + 2.0) * q + (levels + 1.0)) / (q - 1.0) ** 2
     modules_per_branch = 4 + 3 * n_nodes + 5 * n_lat
     seconds = segments * S_PER_SEGMENT + reads * modules_per_branch * S_PER_MODULE
-    if seconds > SLOW_S:
-        warnings.warn(
-            f"growing an L-system tree of n_levels = {levels} and laterals_per_node = {n_lat} "
-            f"takes about {seconds / 60:.0f} min; use fewer n_levels or laterals_per_node",
-            SlowWarning,
-            stacklevel=3,
-        )
+    warn_if_slow(
+        seconds,
+        f"growing an L-system tree of n_levels = {levels} and laterals_per_node = {n_lat}",
+        "use fewer n_levels or laterals_per_node",
+        stacklevel=3,
+    )
 
 
 def _tubes(
