@@ -148,15 +148,49 @@ fn walk(scene: &Scene, origin: V3, cone: &Cone, ni: u32, inside: bool, levels: u
     out
 }
 
-/// The branch segments whose bounding balls reach the cone from `origin`, ascending.
+/// The branch segments whose bounding balls reach the cone from `origin`, ascending, found on
+/// the segments' BVH: a node whose box's ball misses the cone holds no cylinder that a target
+/// ray can pass through (a box holds its cylinders), so the list leaves out only segments that
+/// can block nothing.
 pub(super) fn occluding_segments(scene: &Scene, origin: V3, cone: &Cone) -> Vec<u32> {
     let br = &scene.branches;
-    (0..br.len() as u32)
-        .filter(|&i| {
-            let m = br.mids[i as usize];
-            let v = [m[0] - origin[0], m[1] - origin[1], m[2] - origin[2]];
-            cone.meets(v, br.bound_radii[i as usize] * (1.0 + SLACK))
-                .is_some()
-        })
-        .collect()
+    let bvh = &br.bvh;
+    let mut out = Vec::new();
+    if bvh.nodes.is_empty() {
+        return out;
+    }
+    let mut stack = vec![(0usize, false)];
+    while let Some((ni, inside)) = stack.pop() {
+        let node = &bvh.nodes[ni];
+        let mut whole = inside;
+        if !whole {
+            let a = node.aabb();
+            let lo = [a.min.x as f64, a.min.y as f64, a.min.z as f64];
+            let hi = [a.max.x as f64, a.max.y as f64, a.max.z as f64];
+            let c: V3 = std::array::from_fn(|d| 0.5 * (lo[d] + hi[d]) - origin[d]);
+            let h: V3 = std::array::from_fn(|d| 0.5 * (hi[d] - lo[d]));
+            match cone.meets(c, dot(h, h).sqrt() * (1.0 + SLACK)) {
+                None => continue,
+                Some(all) => whole = all,
+            }
+        }
+        if node.is_leaf() {
+            let first = node.first_index as usize;
+            out.extend(
+                bvh.primitive_indices[first..first + node.prim_count as usize]
+                    .iter()
+                    .filter(|&&i| {
+                        let m = br.mids[i as usize];
+                        let v = [m[0] - origin[0], m[1] - origin[1], m[2] - origin[2]];
+                        cone.meets(v, br.bound_radii[i as usize] * (1.0 + SLACK))
+                            .is_some()
+                    }),
+            );
+        } else {
+            let c = node.first_index as usize;
+            stack.extend([(c + 1, whole), (c, whole)]);
+        }
+    }
+    out.sort_unstable();
+    out
 }

@@ -190,6 +190,51 @@ fn branch_blocking_equals_brute_force_and_spares_a_pieces_own_skeleton() {
 }
 
 #[test]
+fn branch_blocking_of_a_narrow_cone_of_rays_equals_brute_force_among_many_segments() {
+    // Targets in a 6 degree cone along +x among segments all round the sonar, long ones
+    // across the cone's edge among them: the segments found on their BVH block what every
+    // segment tested one by one blocks.
+    let mut u = uniforms(12);
+    let (mut s, mut e, mut r) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..4000 {
+        let a = [-10.0 + 20.0 * u(), -10.0 + 20.0 * u(), -10.0 + 20.0 * u()];
+        let d = unit(&mut u);
+        let l = if k % 10 == 0 {
+            2.0 + 6.0 * u()
+        } else {
+            0.05 + 0.6 * u()
+        };
+        s.push(a);
+        e.push([a[0] + l * d[0], a[1] + l * d[1], a[2] + l * d[2]]);
+        r.push(0.005 + 0.08 * u() * u());
+    }
+    let branches = Branches::new(s, e, r).unwrap();
+    let scene = Scene::with_branches(Vec::new(), Vec::new(), Vec::new(), branches).unwrap();
+    let half = 6f64.to_radians();
+    let targets: Vec<Target> = (0..3000)
+        .map(|_| {
+            let (th, ph, range) = (
+                half * u().sqrt(),
+                std::f64::consts::TAU * u(),
+                1.0 + 9.0 * u(),
+            );
+            // (points as leaf targets of no stored leaf: no segment is their own)
+            Target::Leaf {
+                point: [
+                    range * th.cos(),
+                    range * th.sin() * ph.cos(),
+                    range * th.sin() * ph.sin(),
+                ],
+                leaf: u32::MAX,
+            }
+        })
+        .collect();
+    let got = cast(&scene, [0.0; 3], &targets, true);
+    assert_eq!(got, brute_force(&scene, [0.0; 3], &targets, true));
+    assert!(got.iter().filter(|s| s.blocked).count() > 100);
+}
+
+#[test]
 fn sights_are_the_same_for_one_and_two_threads() {
     let scene = clumped(20_000, 4, Branches::default());
     let targets = leaf_targets(&scene, 1);
