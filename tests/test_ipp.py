@@ -296,6 +296,20 @@ def test_draw_tree_positions_with_an_int_seed_draws_fresh_realisations_each_roun
     assert len(np.unique(pts, axis=0)) == 40
 
 
+def test_draw_tree_positions_keeps_the_points_of_successive_sample_ipp_rounds_in_order():
+    gen = np.random.default_rng(9)
+    rounds = []
+    while sum(len(r) for r in rounds) < 30:
+        rounds.append(sample_ipp(paper_intensity(), PAPER_WINDOW, gen))
+    want = np.concatenate(rounds)[:30]
+    assert np.array_equal(draw_tree_positions(30, np.random.default_rng(9)), want)
+
+
+def test_draw_tree_positions_refuses_an_intensity_zero_on_the_window_before_drawing():
+    with pytest.raises(ValueError, match="zero everywhere on the window"):
+        draw_tree_positions(3, 1, lambda x, y: 0.0 * x, max_rounds=5)
+
+
 @pytest.mark.parametrize(
     "scalar_only",
     [lambda x, y: 0.1 if x < 5 else 0.0, lambda x, y: 0.1 * math.exp(-x)],

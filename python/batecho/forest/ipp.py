@@ -616,10 +616,15 @@ def draw_tree_positions(
     integer(n_trees, "n_trees", 1)
     gen = generator(rng)
     lam = paper_intensity() if intensity is None else intensity
+    # The bound of every round's thinning, found once (the estimate draws nothing, so each
+    # round's points are those sample_ipp would draw estimating it itself).
+    lam_max = estimate_lambda_max(lam, window) if callable(lam) else None
+    if lam_max == 0.0:
+        raise ValueError("the intensity is zero everywhere on the window: no tree can be drawn")
     got: list[np.ndarray] = []
     have = 0
     for _ in range(int(max_rounds)):
-        pts = sample_ipp(lam, window, gen)
+        pts = sample_ipp(lam, window, gen, lambda_max=lam_max)
         got.append(pts)
         have += len(pts)
         if have >= n_trees:
