@@ -225,3 +225,21 @@ def test_a_copied_native_batch_steps_as_the_original():
             assert np.array_equal(a[0][key], b[0][key])
         for x, y in zip(a[1:4], b[1:4], strict=True):
             assert np.array_equal(x, y)
+
+
+def test_make_vec_with_max_episode_steps_truncates_the_native_batch_as_sync_does():
+    kw = {**SMALL, "density": 0.0}
+    native = gym.make_vec(ENV_ID, num_envs=2, max_episode_steps=3, **kw)
+    sync = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", max_episode_steps=3, **kw)
+    native.reset(seed=0)
+    sync.reset(seed=0)
+    hover = np.zeros((2, 4), np.float32)
+    for _ in range(5):
+        got, want = native.step(hover), sync.step(hover)
+        assert np.array_equal(got[2], want[2]) and np.array_equal(got[3], want[3])
+        assert np.array_equal(got[1], want[1])
+
+
+def test_the_batch_refuses_a_max_episode_steps_below_one_by_name():
+    with pytest.raises(ValueError, match="max_episode_steps"):
+        EchoFlightVectorEnv(2, max_episode_steps=0, **{**SMALL, "density": 0.0})

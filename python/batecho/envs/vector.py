@@ -15,6 +15,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
+from .._validate import integer
 from ..flight.sim import QuadrotorSim
 from .echo_flight import EchoFlightEnv
 from .pulses import start_echo_levels
@@ -29,6 +30,10 @@ class EchoFlightVectorEnv(VectorEnv):
     gives alone, step for step, bit for bit. An environment that ended is reset on the next
     step (Gymnasium's ``NEXT_STEP`` autoreset, as in ``SyncVectorEnv``); ``reset(seed=s)``
     seeds environment ``i`` with ``s + i``, or with ``s[i]`` for a list.
+
+    ``max_episode_steps`` (``gymnasium.make_vec(..., max_episode_steps=n)`` passes it) also
+    truncates each episode after that many steps, as Gymnasium's ``TimeLimit`` does for
+    ``"sync"`` and ``"async"``.
     """
 
     metadata = {  # noqa: RUF012 (gymnasium's attribute)
@@ -36,9 +41,12 @@ class EchoFlightVectorEnv(VectorEnv):
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
 
-    def __init__(self, num_envs: int = 1, **kwargs: Any):
+    def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any):
         if isinstance(num_envs, bool) or int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if max_episode_steps is not None:
+            max_episode_steps = integer(max_episode_steps, "max_episode_steps", 1)
+        self.max_episode_steps = max_episode_steps
         self.envs = [EchoFlightEnv(**kwargs) for _ in range(int(num_envs))]
         first = self.envs[0]
         self.num_envs = len(self.envs)
@@ -111,6 +119,9 @@ class EchoFlightVectorEnv(VectorEnv):
                 rewards[i], terminated[i], truncated[i], info = self.envs[i].after_flight(
                     a[i], before[k], paths[k]
                 )
+                # (TimeLimit's rule: truncated at the limit, whether or not it also terminated)
+                if self.max_episode_steps is not None:
+                    truncated[i] |= self.envs[i]._steps >= self.max_episode_steps
                 infos = self._add_info(infos, info, i)
             levels = pulses()
             for i, db in zip(flying, levels, strict=True):
