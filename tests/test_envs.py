@@ -159,6 +159,25 @@ def test_an_episode_is_truncated_at_the_time_limit():
     assert ends[-1] == (False, True) and all(e == (False, False) for e in ends[:-1])
 
 
+def test_a_step_after_the_goal_is_reached_is_refused_until_reset():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    observations, _, info = run(env, blind(env), seed=2)
+    assert info["is_success"]
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(blind(env)(observations[-1]))
+
+
+def test_a_step_after_the_time_limit_is_refused_until_reset():
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0, "max_time_s": 0.1})
+    env.reset(seed=0)
+    hover = np.zeros(4, np.float32)
+    assert [env.step(hover)[3] for _ in range(env.max_steps)][-1]
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(hover)
+    env.reset(seed=0)
+    assert env.step(hover)[2:4] == (False, False)
+
+
 def test_the_echoes_grow_louder_as_a_tree_comes_near():
     env = EchoFlightEnv(**SMALL)
     env.reset(seed=4)

@@ -40,7 +40,8 @@ The reward is the progress toward the goal (m, the fall of its horizontal distan
 ``collision_penalty`` and reaching the goal earns ``success_reward``. The episode terminates on
 a collision (a clearance below ``drone_radius_m`` anywhere along the step's RK4 path;
 ``info["collision"]``), on leaving the corridor (``info["out_of_bounds"]``) or on reaching the
-goal (``info["is_success"]``), and is truncated after ``max_time_s``.
+goal (``info["is_success"]``), and is truncated after ``max_time_s``. A step after either
+end raises RuntimeError until :meth:`~EchoFlightEnv.reset`.
 """
 
 from __future__ import annotations
@@ -357,6 +358,8 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.path: list[np.ndarray] = []
         self._echo_db = np.full((2, self.n_range_bins), self.floor_db)
         self._steps = 0
+        #: Whether the episode has terminated or been truncated (step() then needs a reset).
+        self._ended = False
 
     # -- an episode ---------------------------------------------------------------------------
 
@@ -408,6 +411,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             self.sim.reset(state)
         self._state = self.sim.state.vectors[0]
         self._steps = 0
+        self._ended = False
         self.path = [self.start.copy()]
         self._echo_db = self._pulse()
         return self._observation(), self._info(
@@ -429,6 +433,10 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         if self.sim is None or self.forest is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended:
+            raise RuntimeError(
+                "the episode has ended (terminated or truncated): call reset() before step()"
+            )
         velocity, yaw_rate = self.command(action)
         before = self._goal_distance()
         self._state = self.sim.step(
@@ -467,6 +475,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             reward += self.success_reward
         terminated = collision or out or success
         truncated = not terminated and self._steps >= self.max_steps
+        self._ended = terminated or truncated
         return (
             float(reward),
             bool(terminated),
