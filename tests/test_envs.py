@@ -203,6 +203,22 @@ def test_each_baseline_flies_a_full_episode(make_policy):
     assert env.action_space.contains(policy(env.reset(seed=7)[0]))
 
 
+@pytest.mark.parametrize("make_policy", [blind, echo_reactive])
+def test_a_baseline_for_a_vector_environment_is_refused_by_name(make_policy):
+    envs = gym.make_vec(ENV_ID, num_envs=2, **{**SMALL, "density": 0.0})
+    with pytest.raises(TypeError, match="one environment"):
+        make_policy(envs)
+
+
+@pytest.mark.parametrize("make_policy", [blind, echo_reactive])
+def test_a_baseline_refuses_a_batch_of_observations_by_name(make_policy):
+    envs = gym.make_vec(ENV_ID, num_envs=2, **{**SMALL, "density": 0.0})
+    obs, _ = envs.reset(seed=0)
+    policy = make_policy(EchoFlightEnv(**{**SMALL, "density": 0.0}))
+    with pytest.raises(ValueError, match="one environment's observation"):
+        policy(obs)
+
+
 def test_render_gives_an_rgb_array():
     env = EchoFlightEnv(**SMALL, render_mode="rgb_array")
     env.reset(seed=0)

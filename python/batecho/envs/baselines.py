@@ -13,14 +13,31 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from gymnasium.vector import VectorEnv
 
 __all__ = ["Policy", "blind", "echo_reactive"]
 
 Policy = Callable[[dict[str, np.ndarray]], np.ndarray]
 
 
-def _unwrapped(env: Any) -> Any:
+def _unwrapped(env: Any, name: str) -> Any:
+    if isinstance(env, VectorEnv):
+        raise TypeError(
+            f"{name} is made for one environment, got a vector environment "
+            f"{type(env).__name__}: make one policy from a single environment (gymnasium.make) "
+            "and call it on each environment's observation"
+        )
     return getattr(env, "unwrapped", env)
+
+
+def _one(obs: dict[str, np.ndarray]) -> None:
+    """Refuse anything but one environment's observation (a batch's has a leading axis)."""
+    shape = np.shape(obs["goal"])
+    if shape != (2,):
+        raise ValueError(
+            "the policy takes one environment's observation, whose 'goal' has shape (2,), got "
+            f"{shape}: call it on each environment's observation of a batch"
+        )
 
 
 def _toward_goal(obs: dict[str, np.ndarray], gain: float) -> float:
@@ -32,8 +49,10 @@ def blind(env: Any, turn_gain: float = 2.0) -> Policy:
     """A policy that flies straight at the goal at full speed, ignoring the echoes: yaw rate
     ``turn_gain`` times the goal's bearing (clipped), forward speed slowed only while it turns
     (by the cosine of the bearing)."""
+    _unwrapped(env, "blind")
 
     def policy(obs: dict[str, np.ndarray]) -> np.ndarray:
+        _one(obs)
         bearing = float(obs["goal"][0])
         forward = max(0.0, float(np.cos(bearing)))
         return np.array([forward, 0.0, 0.0, _toward_goal(obs, turn_gain)], np.float32)
@@ -61,13 +80,14 @@ def echo_reactive(
     sidesteps away from the louder ear (toward the goal's side when they are equal), the
     harder the nearer the nearest loud echo.
     """
-    e = _unwrapped(env)
+    e = _unwrapped(env, "echo_reactive")
     n_bins, reach = int(e.n_range_bins), float(e.reach_m)
     ranges = (np.arange(n_bins) + 0.5) * reach / n_bins
     near = ranges <= near_m
     weight = np.where(near, near_m / ranges, 0.0)
 
     def policy(obs: dict[str, np.ndarray]) -> np.ndarray:
+        _one(obs)
         db = np.asarray(obs["echoes"], dtype=np.float64)
         loud = (db > threshold_db) & near
         amplitude = np.where(loud, 10.0 ** ((db - threshold_db) / 20.0) - 1.0, 0.0)
