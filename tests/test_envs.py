@@ -228,6 +228,12 @@ def test_render_gives_an_rgb_array():
     assert img.std() > 0
 
 
+def test_the_render_frame_rate_is_the_pulse_rate():
+    env = gym.make(ENV_ID, **{**SMALL, "pulse_rate_hz": 10.0}, render_mode="rgb_array")
+    assert env.metadata["render_fps"] == 10.0
+    assert EchoFlightEnv.metadata["render_fps"] == 20
+
+
 def test_sync_vector_envs_step_together():
     envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", **SMALL)
     obs, _ = envs.reset(seed=0)

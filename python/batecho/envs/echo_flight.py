@@ -332,6 +332,8 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             self.ceiling_db,
         )
         self.render_mode = render_mode
+        # one frame per step, so that a recorded video plays in real time
+        self.metadata = {**self.metadata, "render_fps": self.pulse_rate_hz}
 
         self.action_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
         #: The bounds the observation's speeds (m/s) and goal distance (m) are clipped to.
