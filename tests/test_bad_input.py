@@ -3,11 +3,14 @@ silent NaN; and nothing the caller passed is modified."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 import batecho
 from batecho import Beam, Leaves, Poses, Scene, Sonar, _core, simulate
+from batecho.sonar.record import sonar_params
 
 GOOD_C = np.array([[2.0, 0.0, 0.0], [3.0, 0.1, 0.0]])
 GOOD_N = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -132,6 +135,43 @@ def test_bad_sonar_parameters_are_refused_naming_them(kw, match):
 def test_n_samples_must_be_an_integer():
     with pytest.raises(TypeError, match="n_samples"):
         Sonar(n_samples=24000.5)
+
+
+#: Sonar parameters as NumPy values and lists, as a parameter sweep or a TOML file gives them,
+#: and the same parameters as Python numbers and tuples.
+NUMPY_SONAR = dict(
+    beam=Beam(sigma_deg=np.array([12.0, 8.0]), center_deg=[np.float32(5.0), 0.0]),
+    fs=np.float32(400e3),
+    n_samples=np.int64(24000),
+    band_hz=np.array([60e3, 80e3]),
+    gain=np.array(0.5),
+    spreading=np.bool_(True),
+    absorption=batecho.Atmosphere(temperature_c=np.float32(25.0)),
+)
+PYTHON_SONAR = dict(
+    beam=Beam(sigma_deg=(12.0, 8.0), center_deg=(5.0, 0.0)),
+    fs=400e3,
+    n_samples=24000,
+    band_hz=(60e3, 80e3),
+    gain=0.5,
+    spreading=True,
+    absorption=batecho.Atmosphere(temperature_c=25.0),
+)
+
+
+def test_a_sonar_given_numpy_values_and_lists_equals_one_given_python_numbers():
+    assert Sonar(**NUMPY_SONAR) == Sonar(**PYTHON_SONAR)
+
+
+def test_a_sonar_given_numpy_values_and_lists_hashes_as_one_given_python_numbers():
+    assert hash(Sonar(**NUMPY_SONAR)) == hash(Sonar(**PYTHON_SONAR))
+
+
+def test_echoes_of_a_sonar_given_numpy_values_export_its_parameters(tmp_path):
+    echoes = simulate(Leaves(GOOD_C, GOOD_N, GOOD_R), Sonar(**NUMPY_SONAR), AXIS)
+    want = echoes.sonar.replace(**PYTHON_SONAR)
+    assert json.loads(echoes.to_xarray().attrs["sonar_json"]) == sonar_params(want)
+    echoes.to_mat(tmp_path / "echoes.mat")
 
 
 @pytest.mark.parametrize(

@@ -4,6 +4,7 @@ never views of the caller's arrays."""
 from __future__ import annotations
 
 import numbers
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -82,6 +83,25 @@ def point3(x: Any, name: str) -> np.ndarray:
     if v.shape != (3,) or not np.isfinite(v).all():
         raise ValueError(f"{name} must be a finite 3-vector, got {x!r}")
     return v
+
+
+def python_value(x: Any) -> Any:
+    """``x`` with NumPy scalars as Python numbers and arrays and lists as tuples (nested), other
+    values as they are: a parameter kept so compares, hashes and writes as JSON as the same
+    value given in Python does."""
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        x = x.tolist()
+    if isinstance(x, (list, tuple)):
+        return tuple(python_value(v) for v in x)
+    return x
+
+
+def keep_python_values(obj: Any, names: Iterable[str]) -> None:
+    """Set the fields ``names`` of the frozen dataclass ``obj`` to their :func:`python_value`."""
+    for name in names:
+        object.__setattr__(obj, name, python_value(getattr(obj, name)))
 
 
 def readonly(arr: np.ndarray) -> np.ndarray:

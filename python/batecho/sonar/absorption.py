@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import finite_scalar
+from .._validate import finite_scalar, keep_python_values
 
 
 def iso9613_alpha_db_per_m(
@@ -54,6 +54,7 @@ class Atmosphere:
     pressure_pa: float = 101_325.0
 
     def __post_init__(self):
+        keep_python_values(self, ("temperature_c", "relative_humidity", "pressure_pa"))
         t = finite_scalar(self.temperature_c, "temperature_c")
         if not -100.0 <= t <= 100.0:
             raise ValueError(f"temperature_c must be in [-100, 100], got {t}")

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import finite_scalar, positive_scalar, real_array
+from .._validate import finite_scalar, keep_python_values, positive_scalar, real_array
 
 __all__ = [
     "HALF_POWER_AMPLITUDE",
@@ -52,6 +52,9 @@ class Beam:
     amplitude: float = 1.0
 
     def __post_init__(self):
+        keep_python_values(
+            self, ("beamwidth_deg", "sigma_deg", "rotation_deg", "center_deg", "amplitude")
+        )
         if self.beamwidth_deg is not None and self.sigma_deg is not None:
             raise ValueError("give beamwidth_deg or sigma_deg, not both")
         if self.beamwidth_deg is None and self.sigma_deg is None:

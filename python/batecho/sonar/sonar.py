@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import _core
 from .._pickle import MadeAgainOnLoading
-from .._validate import finite_scalar, integer, positive_scalar
+from .._validate import finite_scalar, integer, keep_python_values, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
 from .receivers import MAX_RECEIVERS, Receiver, binaural_receivers
@@ -34,6 +34,27 @@ MAX_ABS_THRESHOLD_DB = 300.0
 
 #: The longest record (samples) a sonar may have, as the core's limit.
 MAX_N_SAMPLES = 2**31
+
+#: The parameters that are numbers, flags or pairs of numbers (kept as Python values).
+_NUMBERS = (
+    "beamwidth_deg",
+    "fs",
+    "n_samples",
+    "band_hz",
+    "sound_speed",
+    "threshold_db",
+    "cone_half_angle_deg",
+    "max_range_m",
+    "r0_m",
+    "p0_pa",
+    "p_ref_pa",
+    "spreading",
+    "gain",
+    "min_range_m",
+    "min_ka",
+    "record_tail_s",
+    "branch_piece_scale",
+)
 
 #: Beamwidth used when neither ``beamwidth_deg`` nor ``beam`` is given (Ming's canonical 30 deg).
 DEFAULT_BEAMWIDTH_DEG = 30.0
@@ -109,6 +130,7 @@ class Sonar(MadeAgainOnLoading):
     _resolved: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
+        keep_python_values(self, _NUMBERS)
         if self.beam is not None and self.beamwidth_deg is not None:
             raise ValueError("give beamwidth_deg or beam, not both")
         beam = self.beam
