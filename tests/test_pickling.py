@@ -117,6 +117,67 @@ def test_a_loaded_step_by_step_flight_goes_on_where_the_original_stopped():
     assert np.array_equal(a.vectors, b.vectors)
 
 
+def _read_only_arrays(obj) -> list[str]:
+    """The names of ``obj``'s attributes that are read-only arrays, or tuples holding one."""
+    state = obj.__getstate__()
+    names = []
+    for part in state if isinstance(state, tuple) else (state,):
+        for name, value in (part or {}).items():
+            arrays = value if isinstance(value, tuple) else (value,)
+            if any(isinstance(a, np.ndarray) and not a.flags.writeable for a in arrays):
+                names.append(name)
+    return sorted(names)
+
+
+def _read_only_objects() -> dict[str, object]:
+    forest = batecho.Forest.from_ipp(
+        batecho.UniformIntensity(0.05), (0.0, 20.0, 0.0, 20.0), 3, variants=1
+    )
+    forest.bark()
+    tree = forest.variants[0]
+    drone = batecho.Quadrotor.crazyflie()
+    path = trajectories.Circle((0.0, 0.0), 2.0, altitude=3.0, speed=2.0)
+    reference = batecho.load_reference()
+    return {
+        "Leaves": _wooded_scene().leaves,
+        "Branches": _wooded_scene().branches,
+        "Poses": POSES,
+        "Call": batecho.Call.linear_fm(80e3, 60e3, duration_s=1e-3),
+        "Forest": forest,
+        "Tree": tree,
+        "BranchLayout": tree.layout,
+        "SonarMount": batecho.SonarMount(pitch_deg=-5.0),
+        "Flight": drone.fly(path, duration=0.1),
+        "QuadState": drone.initial_state(trajectories.Hover([0.0, 0.0, 1.0])),
+        "SwarmState": QuadrotorSim(
+            drone, drone.initial_state(trajectories.Hover([0, 0, 1.0]))
+        ).step([0.0, 0.0, 0.0], 0.0, n_steps=1),
+        "ReferenceTree": reference,
+        "BranchTemplate": reference.branches[0],
+        "Mesh": batecho.load_obj(batecho.REFERENCE_TREE),
+        "SquaredExponentialMixture": batecho.paper_intensity(),
+        "RasterIntensity": batecho.RasterIntensity(np.ones((3, 3)), (0.0, 1.0, 0.0, 1.0)),
+    }
+
+
+READ_ONLY_OBJECTS = _read_only_objects()
+
+
+@pytest.mark.parametrize("copier", [_roundtrip, copy.deepcopy], ids=["pickle", "deepcopy"])
+@pytest.mark.parametrize("name", list(READ_ONLY_OBJECTS))
+def test_a_loaded_copy_keeps_the_originals_read_only_arrays_read_only(name, copier):
+    obj = READ_ONLY_OBJECTS[name]
+    assert _read_only_arrays(obj)
+    assert set(_read_only_arrays(obj)) <= set(_read_only_arrays(copier(obj)))
+
+
+def test_the_leaves_of_a_loaded_scene_cannot_be_changed_behind_its_bvh():
+    loaded = _roundtrip(_wooded_scene())
+    assert loaded.leaves is not None
+    with pytest.raises(ValueError, match="read-only"):
+        loaded.leaves.centers[0] = 0.0
+
+
 def _echo_in_worker(args):
     scene, sonar, poses = args
     return batecho.simulate(scene, sonar, poses, tol=1e-6, min_clearance_m=0).impulse

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pickle import ReadOnlyOnLoading
 from .._validate import finite, finite_scalar, readonly, real_array, vectors
 from ._so3 import rot
 from .poses import Poses
@@ -17,7 +18,7 @@ __all__ = ["SonarMount"]
 
 
 @dataclass(frozen=True, eq=False)
-class SonarMount:
+class SonarMount(ReadOnlyOnLoading):
     """How the sonar sits on the body: ``offset`` (3,) m in the body frame, and an orientation
     ``R_mount = Rz(yaw) Ry(-pitch) Rx(roll)`` in the body frame (degrees; ``pitch_deg < 0``
     tilts the beam down, ``yaw_deg > 0`` turns it left). The sonar frame is

@@ -7,10 +7,11 @@ from typing import Any
 import numpy as np
 
 from .._geometry import crosses, dots, norms
+from .._pickle import ReadOnlyOnLoading
 from .._validate import readonly, real_array, unit_rows, vectors
 
 
-class Poses:
+class Poses(ReadOnlyOnLoading):
     """``p`` sonar poses.
 
     Parameters

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pickle import ReadOnlyOnLoading
 from .._resources import BYTES_PER_POSE, check_memory
 from .._validate import finite, finite_scalar, positive_scalar, readonly, real_array
 from .mount import SonarMount
@@ -17,7 +18,7 @@ from .trajectories import Trajectory
 __all__ = ["Flight"]
 
 
-class Flight:
+class Flight(ReadOnlyOnLoading):
     """A recorded flight: the states at ``times`` (k,) s and the reference they tracked.
 
     Arrays (read-only): ``positions``, ``velocities`` (k, 3) world; ``attitudes`` (k, 3, 3)

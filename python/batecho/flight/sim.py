@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .._pickle import ReadOnlyOnLoading
 from .._resources import check_memory
 from .._validate import finite, integer, positive_scalar, readonly, real_array
 from .vehicle import Quadrotor, QuadState
@@ -31,7 +32,7 @@ BYTES_PER_PATH_POINT = 48.0
 
 
 @dataclass(frozen=True, eq=False)
-class SwarmState:
+class SwarmState(ReadOnlyOnLoading):
     """The states of n drones at ``time`` (s): ``positions``, ``velocities`` (n, 3) world;
     ``attitudes`` (n, 3, 3) body -> world; ``angular_velocities`` (n, 3) body rad/s;
     ``rotor_speeds`` (n, 4) rad/s; ``vectors`` (n, 22) in :meth:`QuadState.vector`'s layout.

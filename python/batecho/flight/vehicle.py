@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from .._pickle import MadeAgainOnLoading
+from .._pickle import MadeAgainOnLoading, ReadOnlyOnLoading
 from .._resources import SlowWarning, check_memory
 from .._validate import finite, positive_scalar, readonly, real_array, vectors
 from ._so3 import E3, cross3, hat, orthonormalise, triple
@@ -95,7 +95,7 @@ class Gusts:
 
 
 @dataclass(frozen=True, eq=False)
-class QuadState:
+class QuadState(ReadOnlyOnLoading):
     """A rigid-body state: ``position`` (3,) m and ``velocity`` (3,) m/s in the world frame,
     ``rotation`` (3, 3) body -> world, ``angular_velocity`` (3,) rad/s in the body frame,
     ``rotor_speeds`` (4,) rad/s."""

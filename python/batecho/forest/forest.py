@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import rot_z
+from .._pickle import ReadOnlyOnLoading
 from .._random import generator, int_seed, spawn
 from .._resources import BYTES_PER_LEAF, check_memory, warn_if_slow
 from .._validate import finite_scalar, integer, positive_scalar, vectors
@@ -62,7 +63,7 @@ def guard_forest(t: int, n_grow: int, leaves_per_tree: int, first_s: float) -> N
     )
 
 
-class Forest:
+class Forest(ReadOnlyOnLoading):
     """Trees placed on the ground (see the module docstring).
 
     Parameters

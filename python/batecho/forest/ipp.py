@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pickle import ReadOnlyOnLoading
 from .._random import generator
 from .._validate import finite, integer, positive_scalar, real_array
 
@@ -198,7 +199,7 @@ class UniformIntensity:
         return np.full(np.broadcast(x, y).shape, self.density)
 
 
-class RasterIntensity:
+class RasterIntensity(ReadOnlyOnLoading):
     """A gridded, piecewise-constant intensity (points per m^2).
 
     Parameters
@@ -325,7 +326,7 @@ def _per_component(a: np.ndarray, k: int, name: str) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class SquaredExponentialMixture:
+class SquaredExponentialMixture(ReadOnlyOnLoading):
     """A mixture of squared-exponential (Gaussian-shaped) bumps, points per m^2::
 
         lambda(x, y) = sum_j w_j exp(-(x - a_j)^2 / (2 lx_j^2) - (y - b_j)^2 / (2 ly_j^2))

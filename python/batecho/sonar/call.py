@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pickle import ReadOnlyOnLoading
 from .._validate import finite_scalar, positive_scalar
 
 __all__ = ["WINDOWS", "Call"]
@@ -48,7 +49,7 @@ def _band(f: float, fs: float, name: str) -> float:
 
 
 @dataclass(frozen=True)
-class Call:
+class Call(ReadOnlyOnLoading):
     """An emitted call: ``samples`` (m,) at the rate ``fs`` (Hz), starting at time 0.
 
     :meth:`linear_fm`, :meth:`hyperbolic_fm` and :meth:`cf_fm` make the calls bats emit;

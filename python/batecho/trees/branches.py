@@ -8,11 +8,12 @@ from typing import Any
 import numpy as np
 
 from .._geometry import norms
+from .._pickle import ReadOnlyOnLoading
 from .._validate import finite, readonly, real_array, vectors
 from .leaves import MAX_COORDINATE_M
 
 
-class Branches:
+class Branches(ReadOnlyOnLoading):
     """A set of ``k`` cylinder segments: a tree's woody skeleton (trunk, branches, twigs).
 
     Parameters

@@ -8,13 +8,14 @@ from typing import Any
 import numpy as np
 
 from .._geometry import norms
+from .._pickle import ReadOnlyOnLoading
 from .._validate import finite, readonly, real_array, unit_rows, vectors
 
 #: Coordinates beyond this (m) are refused (the BVH stores f32 boxes).
 MAX_COORDINATE_M = 1e15
 
 
-class Leaves:
+class Leaves(ReadOnlyOnLoading):
     """A set of ``n`` leaf disks.
 
     Parameters

@@ -25,6 +25,7 @@ import numpy as np
 
 from .. import _core
 from .._geometry import crosses, norms
+from .._pickle import ReadOnlyOnLoading
 from .._validate import positive_scalar, readonly, real_array
 from .leaves import Leaves
 
@@ -44,7 +45,7 @@ class ObjWarning(UserWarning):
 
 
 @dataclass(frozen=True, eq=False)
-class Mesh:
+class Mesh(ReadOnlyOnLoading):
     """A tree mesh: leaf disks plus bark triangles, z-up, in metres.
 
     Returned by :func:`load_obj`; can also be built from generated geometry (then ``leaf_areas``

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pickle import ReadOnlyOnLoading
 from .._validate import frozen, point3
 from ._shape import arc_lengths, dedupe_polyline, point_at, project
 from .branches import Branches
@@ -44,7 +45,7 @@ _JSON_FORMAT = "batecho-reference-tree"
 
 
 @dataclass(frozen=True, eq=False)
-class BranchTemplate:
+class BranchTemplate(ReadOnlyOnLoading):
     """One first-level branch of a reference tree, ready to be transported and randomised.
 
     Everything in the reference's frame (m). ``axis`` (m, 3) polyline from ``base`` (on the
@@ -102,7 +103,7 @@ class BranchTemplate:
 
 
 @dataclass(frozen=True, eq=False)
-class ReferenceTree:
+class ReferenceTree(ReadOnlyOnLoading):
     """A reference tree split into trunk and first-level branch templates (see
     :func:`load_reference`). ``structure`` is ``"json"`` (from the sidecar) or ``"derived"``.
     ``trunk_skeleton`` (p, 4): the trunk tube's axis points and bark radii, rows

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import rot_z
+from .._pickle import ReadOnlyOnLoading
 from .._validate import finite_scalar, frozen, point3, positive_scalar
 from ._shape import bounds
 from .branches import Branches
@@ -24,7 +25,7 @@ from .objfile import Mesh, write_obj
 
 
 @dataclass(frozen=True, eq=False)
-class BranchLayout:
+class BranchLayout(ReadOnlyOnLoading):
     """Where a grown tree's first-level branches are and how they were randomised.
 
     ``origins`` (b, 3) m, branch points on the trunk axis; ``directions`` (b, 3) unit vectors
@@ -66,7 +67,7 @@ class BranchLayout:
 
 
 @dataclass(frozen=True, eq=False)
-class Tree:
+class Tree(ReadOnlyOnLoading):
     """One tree: leaf disks and bark triangles, z up, metres.
 
     Attributes
