@@ -150,6 +150,19 @@ def test_bad_calls_are_refused_by_name(make, match):
         make()
 
 
+def test_calls_with_the_same_samples_rate_and_name_are_equal():
+    a = Call.linear_fm(80e3, 60e3, duration_s=1e-3)
+    b = Call(list(a.samples), a.fs, a.name)
+    assert a == b
+    assert a != Call.linear_fm(80e3, 50e3, duration_s=1e-3)
+    assert a != Call(a.samples, a.fs, "other")
+
+
+def test_equal_calls_hash_alike():
+    a = Call.cf_fm(70e3, 2e-3, 60e3, 1e-3)
+    assert hash(a) == hash(Call(a.samples.copy(), a.fs, a.name))
+
+
 def test_the_wav_file_is_stereo_for_two_ears_time_expanded_and_normalised(two_ears, tmp_path):
     from scipy.io import wavfile
 

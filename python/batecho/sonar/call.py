@@ -75,6 +75,19 @@ class Call(ReadOnlyOnLoading):
         object.__setattr__(self, "samples", s)
         object.__setattr__(self, "fs", positive_scalar(self.fs, "fs"))
 
+    # (the samples compare and hash by value; the generated methods would compare arrays)
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Call):
+            return NotImplemented
+        return (
+            self.fs == other.fs
+            and self.name == other.name
+            and np.array_equal(self.samples, other.samples)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.samples.tobytes(), self.fs, self.name))
+
     def __len__(self) -> int:
         return self.samples.size
 
