@@ -340,6 +340,17 @@ def test_bad_scene_file_gives_no_traceback_in_a_subprocess(tmp_path):
     assert "[flight] radius: expected a number" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_a_reader_that_leaves_early_ends_the_dataset_output_quietly():
+    # the reader closes its end before the command writes, as "| head -1" does sooner or later
+    p = subprocess.Popen([sys.executable, "-m", "batecho", "dataset", "template"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 1, err
+    assert err == ""
+
+
 def test_scenefile_error_is_a_value_error():
     with pytest.raises(ScenefileError, match="missing key"):
         SceneFile.from_string("[scene]\ndensity_per_m3 = 1.0\n")

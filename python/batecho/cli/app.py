@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.models import TREE_MODELS
+from ..outputs.files import stdout_reader_left
 from ..scenefile.schema import MAX_DPI
 from .commands import UserError, run_demo, run_paper_figures, run_paper_table1, run_simulate
 
@@ -366,10 +367,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"batecho {name}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # e.g. "batecho paper table1 | head": the reader left
-        import os
-
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
+        return stdout_reader_left()
     except OSError as exc:
         print(f"batecho {name}: error: {os_error_message(exc)}", file=sys.stderr)
         return 2

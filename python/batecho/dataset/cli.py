@@ -142,6 +142,10 @@ def main(args: argparse.Namespace | Sequence[str] | None = None) -> int:
     action = args.dataset_command
     try:
         return _ACTIONS[action](args)
+    except BrokenPipeError:  # e.g. "batecho dataset show STORE | head": the reader left
+        from ..outputs.files import stdout_reader_left
+
+        return stdout_reader_left()
     # Bad spec or store (ValueError), a chunk that failed (RuntimeError), no scheduler or no
     # file (OSError), a missing optional package (ImportError): one line, no traceback.
     except (ValueError, TypeError, RuntimeError, OSError, ImportError) as exc:

@@ -1,15 +1,22 @@
 """Where results are written: output folders checked before any work and made when needed,
-and write errors that name the file they were writing."""
+write errors that name the file they were writing, and a standard output whose reader left."""
 
 from __future__ import annotations
 
 import errno
 import os
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["check_output_file", "check_output_folder", "make_output_folder", "writing"]
+__all__ = [
+    "check_output_file",
+    "check_output_folder",
+    "make_output_folder",
+    "stdout_reader_left",
+    "writing",
+]
 
 
 def check_output_folder(path: str | os.PathLike) -> Path:
@@ -55,3 +62,11 @@ def writing(path: str | os.PathLike) -> Iterator[None]:
         if exc.filename is None and exc.errno is not None:
             raise type(exc)(exc.errno, exc.strerror or str(exc), str(path)) from exc
         raise
+
+
+def stdout_reader_left() -> int:
+    """After a BrokenPipeError on standard output (its reader left early, as ``| head`` does):
+    the rest of the output goes to the null device, so that Python's last flush does not fail
+    too. Returns the exit status, 1."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 1
