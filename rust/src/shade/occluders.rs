@@ -2,6 +2,7 @@
 //! ray, and the leaves (by the BVH) and branch segments whose bounding balls reach it.
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
+use obvhs::aabb::Aabb;
 
 /// Relative slack of the cone test, far beyond its rounding.
 const SLACK: f64 = 1e-9;
@@ -48,6 +49,17 @@ impl Cone {
             sin_half: half.sin(),
             reach: reach * (1.0 + SLACK),
         }
+    }
+
+    /// [`Cone::meets`] for the ball round a BVH node's box (absolute coordinates; the sonar at
+    /// `origin`).
+    #[inline(always)]
+    pub(super) fn meets_box(&self, a: &Aabb, origin: V3) -> Option<bool> {
+        let lo = [a.min.x as f64, a.min.y as f64, a.min.z as f64];
+        let hi = [a.max.x as f64, a.max.y as f64, a.max.z as f64];
+        let c: V3 = std::array::from_fn(|d| 0.5 * (lo[d] + hi[d]) - origin[d]);
+        let h: V3 = std::array::from_fn(|d| 0.5 * (hi[d] - lo[d]));
+        self.meets(c, dot(h, h).sqrt() * (1.0 + SLACK))
     }
 
     /// Whether a ball of centre `v` (relative to the sonar) and radius `rho` may hold a point
@@ -108,12 +120,7 @@ fn walk(scene: &Scene, origin: V3, cone: &Cone, ni: u32, inside: bool, levels: u
         };
         let mut whole = inside || small;
         if !whole {
-            let a = node.aabb();
-            let lo = [a.min.x as f64, a.min.y as f64, a.min.z as f64];
-            let hi = [a.max.x as f64, a.max.y as f64, a.max.z as f64];
-            let c: V3 = std::array::from_fn(|d| 0.5 * (lo[d] + hi[d]) - origin[d]);
-            let h: V3 = std::array::from_fn(|d| 0.5 * (hi[d] - lo[d]));
-            match cone.meets(c, dot(h, h).sqrt() * (1.0 + SLACK)) {
+            match cone.meets_box(node.aabb(), origin) {
                 None => continue,
                 Some(all) => whole = all,
             }
@@ -164,12 +171,7 @@ pub(super) fn occluding_segments(scene: &Scene, origin: V3, cone: &Cone) -> Vec<
         let node = &bvh.nodes[ni];
         let mut whole = inside;
         if !whole {
-            let a = node.aabb();
-            let lo = [a.min.x as f64, a.min.y as f64, a.min.z as f64];
-            let hi = [a.max.x as f64, a.max.y as f64, a.max.z as f64];
-            let c: V3 = std::array::from_fn(|d| 0.5 * (lo[d] + hi[d]) - origin[d]);
-            let h: V3 = std::array::from_fn(|d| 0.5 * (hi[d] - lo[d]));
-            match cone.meets(c, dot(h, h).sqrt() * (1.0 + SLACK)) {
+            match cone.meets_box(node.aabb(), origin) {
                 None => continue,
                 Some(all) => whole = all,
             }
