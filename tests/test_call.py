@@ -150,6 +150,21 @@ def test_bad_calls_are_refused_by_name(make, match):
         make()
 
 
+@pytest.mark.parametrize("samples", [np.zeros(50), np.full(50, 1e-170), np.full(50, 1e160)])
+def test_a_call_whose_energy_is_zero_or_overflows_is_refused(samples):
+    # the matched filter divides by the energy: NaN or zero everywhere otherwise
+    with pytest.raises(ValueError, match="energy"):
+        Call(samples, 400e3)
+
+
+@pytest.mark.parametrize(
+    "samples", [np.array([1.0 + 1.0j, 2.0]), np.array([True, False]), ["1", "2"]]
+)
+def test_samples_that_are_not_real_numbers_are_refused_with_type_error(samples):
+    with pytest.raises(TypeError, match="samples"):
+        Call(samples, 400e3)
+
+
 def test_calls_with_the_same_samples_rate_and_name_are_equal():
     a = Call.linear_fm(80e3, 60e3, duration_s=1e-3)
     b = Call(list(a.samples), a.fs, a.name)

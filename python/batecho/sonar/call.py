@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from .._pickle import ReadOnlyOnLoading
-from .._validate import finite_scalar, positive_scalar
+from .._validate import finite_scalar, positive_scalar, real_array
 
 __all__ = ["WINDOWS", "Call"]
 
@@ -53,7 +53,9 @@ class Call(ReadOnlyOnLoading):
     """An emitted call: ``samples`` (m,) at the rate ``fs`` (Hz), starting at time 0.
 
     :meth:`linear_fm`, :meth:`hyperbolic_fm` and :meth:`cf_fm` make the calls bats emit;
-    ``Call(samples, fs)`` takes any other. The samples are copied and read-only.
+    ``Call(samples, fs)`` takes any other: real and finite, with an energy ``sum(samples^2)``
+    that is neither zero nor beyond float64 (the matched filter divides by it). The samples are
+    copied and read-only.
     """
 
     samples: np.ndarray
@@ -61,16 +63,19 @@ class Call(ReadOnlyOnLoading):
     name: str = field(default="custom")
 
     def __post_init__(self):
-        try:
-            s = np.array(self.samples, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise TypeError(
-                f"samples must be an array of real numbers, got {self.samples!r}"
-            ) from None
+        s = real_array(self.samples, "samples")
         if s.ndim != 1 or s.size < 1:
             raise ValueError(f"samples must be a non-empty 1-D array, got shape {s.shape}")
         if not np.isfinite(s).all():
             raise ValueError(f"samples must be finite (sample {int(np.argmin(np.isfinite(s)))})")
+        # the matched filter divides by the energy: it must be a normal float64, not 0 or inf
+        with np.errstate(over="ignore", under="ignore"):
+            energy = float(np.dot(s, s))
+        if not np.finfo(np.float64).tiny <= energy < np.inf:
+            raise ValueError(
+                f"the samples' energy sum(samples^2) is {energy:g}: zero, or outside float64's "
+                "normal range; scale the samples"
+            )
         s.flags.writeable = False
         object.__setattr__(self, "samples", s)
         object.__setattr__(self, "fs", positive_scalar(self.fs, "fs"))
