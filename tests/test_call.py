@@ -274,6 +274,17 @@ def test_a_given_record_without_its_call_is_refused(two_ears, export, tmp_path):
         getattr(two_ears, export)(*args, received=two_ears.impulse)
 
 
+@pytest.mark.parametrize("export", ["to_xarray", "to_mat"])
+def test_a_given_record_with_a_call_at_another_rate_is_refused(one_ear, export, tmp_path):
+    args = (tmp_path / "e.mat",) if export == "to_mat" else ()
+    call = Call.linear_fm(80e3, 60e3, 2e-3, fs=250e3)
+    with pytest.raises(ValueError, match="sampled at 250000 Hz"):
+        getattr(one_ear, export)(*args, call=call, received=one_ear.impulse)
+    with pytest.raises(TypeError, match="batecho.Call"):
+        getattr(one_ear, export)(*args, call=np.ones(10), received=one_ear.impulse)
+    assert not (tmp_path / "e.mat").exists()
+
+
 @pytest.mark.parametrize("export", ["to_mat", "to_wav"])
 def test_writing_into_a_missing_folder_names_the_folder(one_ear, export, tmp_path):
     with pytest.raises(FileNotFoundError, match="nodir"):

@@ -186,7 +186,11 @@ def to_xarray(echoes: Any, call: Call | None = None, received: np.ndarray | None
 
 def _received(echoes: Any, call: Call, received: Any) -> np.ndarray:
     """What the receivers record, with a receiver axis: ``received`` (a copy, checked to be
-    finite and shaped as the impulse responses) or :meth:`Echoes.received` without noise."""
+    finite and shaped as the impulse responses) or :meth:`Echoes.received` without noise.
+    ``call`` must be a :class:`~batecho.Call` at the echoes' rate either way."""
+    from .received import _check_call
+
+    _check_call(call, echoes.sonar.fs)
     if received is None:
         rec = echoes.received(call)
     else:
