@@ -148,6 +148,17 @@ def test_one_receivers_echoes_keep_their_shaded_counts():
     np.testing.assert_array_equal(echo.for_receiver(1).n_shaded, echo.n_shaded[:, 1])
 
 
+@pytest.mark.parametrize("sights", [batecho.leaf_sights, reference.leaf_sights])
+def test_leaf_sights_refuses_a_sonar_with_receivers_of_its_own(sights):
+    # its rays run from the emitter only, and which leaves count depends on the receiver: two
+    # ears facing away from the axis each hear a leaf that no emitter-only lobe holds
+    leaves = Leaves([[3.0, 2.0, 0.0], [3.0, -2.0, 0.0]], [[1, 0, 0]] * 2, [0.05] * 2)
+    ears = Sonar.binaural(0.02, ear_yaw_deg=40, beamwidth_deg=30, shading=Shading())
+    assert batecho.simulate(leaves, ears, ORIGIN).n_leaves.tolist() == [[1, 1]]
+    with pytest.raises(ValueError, match="receivers"):
+        sights(leaves, ears, ORIGIN)
+
+
 def test_a_dataset_spec_with_two_ears_and_shading_labels_each_ear():
     from batecho.dataset import DatasetSpec
     from batecho.dataset.store import schema

@@ -205,6 +205,17 @@ def _check(sonar: Any, poses: Any) -> tuple[Sonar, Poses]:
     return sonar, poses
 
 
+def refuse_receivers(sonar: Sonar, what: str) -> None:
+    """ValueError when ``sonar`` has receivers of its own: ``what`` casts rays from the
+    emitter and takes the monostatic lobe (docs/model.md §10)."""
+    if sonar.n_receivers:
+        raise ValueError(
+            f"{what} casts its rays from the emitter, for the leaves heard there; this sonar "
+            f"has {sonar.n_receivers} receivers of their own (simulate's Echoes.n_leaves and "
+            "n_shaded count their leaves and shading): pass a sonar without receivers"
+        )
+
+
 def warn_low_clearance(scene: Scene, poses: Poses, min_clearance_m: float, stacklevel: int) -> None:
     """Warn (:class:`ClearanceWarning`) if a pose is closer than ``min_clearance_m`` to a leaf
     of ``scene`` (one nearest-leaf query per pose, on the BVH)."""
@@ -341,10 +352,14 @@ def leaf_sights(
     """The sights of the leaves that count for one pose: the crossings and blocks that
     shading turns into the factor ``tau^(2 m)`` or 0. Rays are cast with the scene's BVH and
     a light buffer round the sonar, in parallel; every candidate crossing is decided by the
-    exact test of docs/model.md §10. Branches are tested only with ``branches_block``."""
+    exact test of docs/model.md §10. Branches are tested only with ``branches_block``.
+
+    The rays run from the sonar, so ``sonar`` must hear at the emitter: one with receivers of
+    its own is refused (their echoes' shading is in ``Echoes.n_shaded``)."""
     sonar, pose = _check(sonar, pose)
     if len(pose) != 1:
         raise ValueError(f"leaf_sights takes one pose; got {len(pose)} (index it: poses[i])")
+    refuse_receivers(sonar, "leaf_sights")
     if not isinstance(branches_block, bool):
         raise TypeError(f"branches_block must be True or False, got {branches_block!r}")
     sc = as_scene(scene)
@@ -362,6 +377,7 @@ __all__ = [
     "LeafSights",
     "leaf_sights",
     "lobe_members",
+    "refuse_receivers",
     "simulate",
     "warn_low_clearance",
 ]

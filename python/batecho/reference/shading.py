@@ -139,8 +139,9 @@ def _shading(
 def leaf_sights(scene: Any, sonar: Sonar, pose: Poses, *, branches_block: bool = True):
     """For each counting leaf of one pose (ascending index): the other leaf disks its ray
     crosses and whether a branch blocks it, by testing every leaf and branch."""
-    from ..echoes.simulate import LeafSights
+    from ..echoes.simulate import LeafSights, refuse_receivers
 
+    refuse_receivers(sonar, "leaf_sights")
     leaves, branches = _parts(scene)
     if leaves is None:
         raise ValueError("leaf_sights needs a scene with leaves")
