@@ -333,6 +333,23 @@ def test_the_distance_to_a_branch_is_to_its_side_its_cap_or_its_rim_and_zero_ins
     assert i.tolist() == [-1] * 5  # branch 0
 
 
+def test_branches_distance_to_is_the_scenes_clearance_beyond_the_caps_and_the_rims():
+    trunk = batecho.Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 4.0]], [0.25])
+    pts = [[1.0, 0.0, 2.0], [0.0, 0.1, 5.0], [1.25, 0.0, -3.0], [0.3, 0.0, 4.2], [0.0, 0.0, -0.5]]
+    want = batecho.Scene(None, branches=trunk).clearance(pts)
+    got = [trunk.distance_to(p)[0] for p in pts]
+    # the side, beyond the cap on the axis, off the rim, just off the rim, below the base cap
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+
+
+def test_branches_distance_to_is_minus_the_depth_to_the_nearest_face_inside():
+    trunk = batecho.Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 4.0]], [0.25])
+    pts = [[0.1, 0.0, 2.0], [0.0, 0.0, 0.1], [0.0, 0.2, 3.95]]
+    got = [trunk.distance_to(p)[0] for p in pts]
+    # the side is nearest, the base cap is, the top cap is (nearer than the side)
+    np.testing.assert_allclose(got, [-0.15, -0.1, -0.05], atol=1e-15)
+
+
 def test_the_nearer_of_a_leaf_and_a_branch_is_named():
     leaves = batecho.Leaves([[2.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.05])
     trunk = batecho.Branches(

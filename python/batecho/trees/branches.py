@@ -138,12 +138,19 @@ class Branches(ReadOnlyOnLoading):
         return both.min(axis=0), both.max(axis=0)
 
     def distance_to(self, point: Any) -> np.ndarray:
-        """(k,) distance (m) from ``point`` to each segment's surface (negative inside)."""
+        """(k,) distance (m) from ``point`` to each segment's surface, a solid capped cylinder
+        as in :meth:`Scene.clearance <batecho.Scene.clearance>` (docs/model.md §6); inside, minus
+        the depth to the nearest face (side or cap)."""
         p = vectors(point, "point")[0]
-        d = self._ends - self._starts
+        length = self.lengths
+        u = (self._ends - self._starts) / length[:, None]
         m = p - self._starts
-        t = np.clip(np.einsum("ij,ij->i", m, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
-        return norms(m - t[:, None] * d) - self._radii
+        along = np.einsum("ij,ij->i", m, u)
+        rho = norms(m - along[:, None] * u)
+        axial = np.maximum(np.maximum(-along, along - length), 0.0)
+        radial = np.maximum(rho - self._radii, 0.0)
+        depth = np.minimum(self._radii - rho, np.minimum(along, length - along))
+        return np.where((axial > 0) | (radial > 0), np.hypot(axial, radial), 0.0 - depth)
 
 
 __all__: Sequence[str] = ["Branches"]
