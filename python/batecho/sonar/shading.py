@@ -24,8 +24,9 @@ class Shading:
 
     ``leaf_transmission`` (tau, in [0, 1]): the one-way amplitude factor of each leaf disk the
     ray from the sonar to a scatterer crosses; the echo is scaled by ``tau^(2m)`` for ``m``
-    crossings. ``tau = 1`` gives the unshaded echo. ``branches_block``: a branch cylinder on
-    the ray silences the scatterer.
+    crossings. ``branches_block``: a branch cylinder on the ray silences the scatterer.
+    ``tau = 1`` with ``branches_block=False`` gives the unshaded echo bit for bit; with
+    ``branches_block=True`` the branches still silence what lies behind them.
 
     Pass it as ``Sonar(shading=Shading())``; the default sonar does not shade (the paper's
     model).
