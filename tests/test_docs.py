@@ -185,3 +185,15 @@ def test_the_dataset_example_offers_a_scene_kind_the_spec_accepts():
     for kind in kinds.groups():
         spec = DatasetSpec.from_toml_string(text.replace(kinds.group(0), f'kind = "{kind}"'))
         assert spec.scene.kind == kind
+
+
+def test_the_api_page_of_batecho_documents_every_top_level_name():
+    import types
+
+    import batecho
+
+    page = (ROOT / "docs" / "api" / "batecho.md").read_text(encoding="utf-8")
+    documented = set(re.findall(r"^::: batecho\.(\w+)$", page, re.M))
+    names = {n for n in batecho.__all__ if not n.startswith("_")}
+    modules = {n for n in names if isinstance(getattr(batecho, n), types.ModuleType)}
+    assert not sorted(names - modules - documented)

@@ -23,6 +23,8 @@ class Branches(ReadOnlyOnLoading):
     radii : array_like, shape (k,)
         Segment radii in metres, > 0.
 
+    Notes
+    -----
     Segments that share an end point exactly (bit for bit) are joints of one skeleton: they
     never block the rays to each other's echoes (docs/model.md §10). The caller's arrays are
     never modified or kept: ``Branches`` holds read-only float64 copies.
