@@ -142,3 +142,19 @@ def test_the_python_check_says_what_and_how_to_split_it():
     with pytest.raises(MemoryError, match=r"the thing needs about 931\.3 GiB.*in pieces"):
         check_memory(1e12, "the thing", "do it in pieces")
     check_memory(1e3, "a small thing", "")
+
+
+def test_a_pose_whose_branches_cut_into_too_many_pieces_is_refused_naming_the_piece_scale():
+    # 3000 trunks 8 m tall at 2-3 m, cut finely: billions of bytes of pieces for one pose
+    refused(
+        "rng = np.random.default_rng(0)\n"
+        "base = np.column_stack([rng.uniform(2, 3, 3000), rng.uniform(-3, 3, 3000),\n"
+        "                        np.full(3000, -4.0)])\n"
+        "wood = batecho.Branches(base, base + [0, 0, 8.0], np.full(3000, 0.05))\n"
+        "simulate(batecho.Scene(None, branches=wood),\n"
+        "         Sonar(branch_piece_scale=0.01, lobe='cone', cone_half_angle_deg=89,\n"
+        "               max_range_m=10), POSE, method='fast')",
+        "MemoryError",
+        "branch_piece_scale",
+        "pieces",
+    )

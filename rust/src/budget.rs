@@ -77,6 +77,10 @@ pub fn sonar_bytes(m: usize, n: usize, threads: usize) -> f64 {
         + threads as f64 * (m as f64 * THREAD_BYTES_PER_BIN + n as f64 * THREAD_BYTES_PER_SAMPLE)
 }
 
+/// Memory per counting branch piece of a pose (bytes): its member, its term, its shading
+/// target and factor.
+pub const BYTES_PER_PIECE: f64 = 320.0;
+
 /// Memory per leaf of a scene (bytes): the arrays, their copies in BVH order, the BVH.
 pub const BYTES_PER_LEAF: f64 = 400.0;
 

@@ -1,6 +1,7 @@
 //! Which branch pieces count for a pose (docs/model.md §9): each segment near the lobe is cut
 //! into pieces by the rule of [`max_piece_length`] at its nearest distance, and each piece goes
 //! through the leaves' exact lobe test at its reference point (the near surface at its centre).
+use crate::budget;
 use crate::error::{Error, Result};
 use crate::lobe::bound::{test_box, AngularBound, BoxTest};
 use crate::lobe::rule::{classify, Decision};
@@ -73,6 +74,37 @@ pub fn block_box(a: V3, d: V3, n: usize, k0: usize, k1: usize, radius: f64) -> (
     (lo, hi, s0, s1)
 }
 
+/// How segment `i` is cut for the pose: the distance of its surface and its number of pieces
+/// (the rule of [`max_piece_length`] at that distance), or None where no piece of it can count
+/// or be too close (beyond the reach or, with `lobe`, its box outside the lobe).
+fn cut(scene: &Scene, sonar: &Sonar, pose: &Pose, i: usize, lobe: bool) -> Option<(f64, usize)> {
+    let br = &scene.branches;
+    let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
+    let p = pose.position;
+    let sp = &sonar.params;
+    let near = distance_to_segment(p, a, b) - radius;
+    if near > sonar.max_reach() {
+        return None;
+    }
+    if lobe && near >= sp.min_range {
+        // (the lobe's conservative box test on the segment's box)
+        let lo: V3 = std::array::from_fn(|d| a[d].min(b[d]) - radius);
+        let hi: V3 = std::array::from_fn(|d| a[d].max(b[d]) + radius);
+        let bound = AngularBound::new(sonar, pose);
+        if test_box(sonar, pose, bound.as_ref(), lo, hi) == BoxTest::Outside {
+            return None;
+        }
+    }
+    let k_max = sonar.wavenumbers[sonar.wavenumbers.len() - 1];
+    let max_len = max_piece_length(
+        near.max(sp.min_range),
+        k_max,
+        sonar.narrowest_sigma(),
+        sp.branch_piece_scale,
+    );
+    Some((near, piece_count(br.lengths[i], max_len)))
+}
+
 /// The pieces of segment `i` that count, appended to `out`; the first too-close one (segment,
 /// distance of its surface) into `too_close`.
 fn segment_pieces(
@@ -83,38 +115,22 @@ fn segment_pieces(
     out: &mut Vec<PieceMember>,
     too_close: &mut Option<(usize, f64)>,
 ) -> Result<()> {
+    let Some((near, n)) = cut(scene, sonar, pose, i, true) else {
+        return Ok(());
+    };
+    if n > MAX_PIECES {
+        return Err(Error::InvalidInput(format!(
+            "branch {i} would need {n} pieces at {near:.3e} m from the sonar (at most \
+             {MAX_PIECES}, with branch_piece_scale = {}); raise min_range_m or \
+             branch_piece_scale, or keep the sonar farther from it",
+            sonar.params.branch_piece_scale
+        )));
+    }
     let br = &scene.branches;
     let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
     let p = pose.position;
     let sp = &sonar.params;
-    let near = distance_to_segment(p, a, b) - radius;
-    if near > sonar.max_reach() {
-        return Ok(());
-    }
-    if near >= sp.min_range {
-        // (the lobe's conservative box test on the segment's box)
-        let lo: V3 = std::array::from_fn(|d| a[d].min(b[d]) - radius);
-        let hi: V3 = std::array::from_fn(|d| a[d].max(b[d]) + radius);
-        let bound = AngularBound::new(sonar, pose);
-        if test_box(sonar, pose, bound.as_ref(), lo, hi) == BoxTest::Outside {
-            return Ok(());
-        }
-    }
-    let k_max = sonar.wavenumbers[sonar.wavenumbers.len() - 1];
-    let max_len = max_piece_length(
-        near.max(sp.min_range),
-        k_max,
-        sonar.narrowest_sigma(),
-        sp.branch_piece_scale,
-    );
     let length = br.lengths[i];
-    let n = piece_count(length, max_len);
-    if n > MAX_PIECES {
-        return Err(Error::InvalidInput(format!(
-            "branch {i} would need {n} pieces at {near:.3e} m from the sonar (at most \
-             {MAX_PIECES}); raise min_range_m or keep the sonar farther from it"
-        )));
-    }
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let (u, piece_len) = (br.axes[i], length / n as f64);
     let mut note_close = |r: f64| {
@@ -161,6 +177,24 @@ fn segment_pieces(
     Ok(())
 }
 
+/// `TooLarge` where `bound` pieces (an upper bound on a pose's counting pieces, counted before
+/// any is made) would not fit the memory limit on every thread: each may become a member, a
+/// term and a shading target.
+pub(crate) fn check_pieces(bound: f64, sonar: &Sonar, pose_index: usize) -> Result<()> {
+    let threads = rayon::current_num_threads();
+    budget::check(
+        bound * budget::BYTES_PER_PIECE * threads as f64,
+        || {
+            format!(
+                "pose {pose_index}: its branches cut into up to {bound:.0} pieces \
+                 (branch_piece_scale = {}, min_range_m = {}) on each of {threads} threads",
+                sonar.params.branch_piece_scale, sonar.params.min_range,
+            )
+        },
+        "raise branch_piece_scale or min_range_m, or leave the nearest branches out",
+    )
+}
+
 /// The counting branch pieces of one pose, by segment (the caller's order) and along each
 /// segment from its start. `pose_index` only labels errors. A piece closer than `min_range`
 /// (or a pose inside a branch) is an error naming the segment, or is left out with
@@ -178,6 +212,12 @@ pub fn branch_members(
     }
     // (the segments a piece of which may lie within the reach; see `segment_pieces`)
     let near = scene.branches.within(pose.position, sonar.max_reach());
+    // (every segment within the reach, without the lobe's box test: a cheap upper bound)
+    let bound: f64 = near
+        .par_iter()
+        .map(|&i| cut(scene, sonar, pose, i as usize, false).map_or(0.0, |(_, n)| n as f64))
+        .sum();
+    check_pieces(bound, sonar, pose_index)?;
     type Part = (Vec<PieceMember>, Option<(usize, f64)>);
     let parts: Vec<Result<Part>> = near
         .par_chunks(SEGMENT_CHUNK)

@@ -16,7 +16,7 @@ use crate::scene::Scene;
 use crate::sonar::{Sonar, TooClose};
 use rayon::prelude::*;
 
-use super::pieces::{block_box, visit_spans, MAX_PIECES};
+use super::pieces::{block_box, check_pieces, visit_spans, MAX_PIECES};
 use crate::lobe::bound::BoxTest;
 use crate::lobe::receivers_bound::test_box_heard;
 
@@ -58,6 +58,36 @@ fn half_offset(pose: &Pose, rxs: &[PlacedReceiver]) -> f64 {
     })
 }
 
+/// How segment `i` is cut for the pose and receivers: the distances of its surface from the
+/// emitter and from the emitter or the nearest receiver, and its number of pieces; None where
+/// it lies beyond the reach.
+fn cut_heard(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    rxs: &[PlacedReceiver],
+    i: usize,
+) -> Option<(f64, f64, usize)> {
+    let br = &scene.branches;
+    let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
+    let sp = &sonar.params;
+    let near_tx = distance_to_segment(pose.position, a, b) - radius;
+    let near = rxs.iter().fold(near_tx, |m, rx| {
+        m.min(distance_to_segment(rx.position, a, b) - radius)
+    });
+    if near_tx - half_offset(pose, rxs) > sonar.max_reach() {
+        return None;
+    }
+    let k_max = sonar.wavenumbers[sonar.wavenumbers.len() - 1];
+    let max_len = max_piece_length(
+        near.max(sp.min_range),
+        k_max,
+        narrowest_sigma(sonar, rxs),
+        sp.branch_piece_scale,
+    );
+    Some((near_tx, near, piece_count(br.lengths[i], max_len)))
+}
+
 /// Per receiver, the pieces of segment `i` that count, appended to `out[j]`; the first
 /// too-close one (segment, distance, the receiver or None for the emitter) into `too_close`.
 fn segment_pieces_heard(
@@ -69,32 +99,22 @@ fn segment_pieces_heard(
     out: &mut [Vec<HeardPiece>],
     too_close: &mut Option<Close>,
 ) -> Result<()> {
-    let br = &scene.branches;
-    let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
-    let sp = &sonar.params;
-    let near_tx = distance_to_segment(pose.position, a, b) - radius;
-    let near = rxs.iter().fold(near_tx, |m, rx| {
-        m.min(distance_to_segment(rx.position, a, b) - radius)
-    });
-    let half_offset = half_offset(pose, rxs);
-    if near_tx - half_offset > sonar.max_reach() {
+    let Some((near_tx, near, n)) = cut_heard(scene, sonar, pose, rxs, i) else {
         return Ok(());
-    }
-    let k_max = sonar.wavenumbers[sonar.wavenumbers.len() - 1];
-    let max_len = max_piece_length(
-        near.max(sp.min_range),
-        k_max,
-        narrowest_sigma(sonar, rxs),
-        sp.branch_piece_scale,
-    );
-    let length = br.lengths[i];
-    let n = piece_count(length, max_len);
+    };
     if n > MAX_PIECES {
         return Err(Error::InvalidInput(format!(
             "branch {i} would need {n} pieces at {near:.3e} m from the sonar or a receiver (at \
-             most {MAX_PIECES}); raise min_range_m or keep the sonar farther from it"
+             most {MAX_PIECES}, with branch_piece_scale = {}); raise min_range_m or \
+             branch_piece_scale, or keep the sonar farther from it",
+            sonar.params.branch_piece_scale
         )));
     }
+    let br = &scene.branches;
+    let (a, b, radius) = (br.starts[i], br.ends[i], br.radii[i]);
+    let sp = &sonar.params;
+    let half_offset = half_offset(pose, rxs);
+    let length = br.lengths[i];
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let (u, piece_len) = (br.axes[i], length / n as f64);
     let mut note_close = |r: f64, who: Option<usize>| {
@@ -190,6 +210,11 @@ pub fn branch_members_heard(
     let near = scene
         .branches
         .within(pose.position, sonar.max_reach() + half_offset(pose, rxs));
+    let bound: f64 = near
+        .par_iter()
+        .map(|&i| cut_heard(scene, sonar, pose, rxs, i as usize).map_or(0.0, |(_, _, n)| n as f64))
+        .sum();
+    check_pieces(bound * rxs.len() as f64, sonar, pose_index)?;
     type Part = (Vec<Vec<HeardPiece>>, Option<Close>);
     let parts: Vec<Result<Part>> = near
         .par_chunks(SEGMENT_CHUNK)
