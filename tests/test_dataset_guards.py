@@ -161,3 +161,16 @@ def test_a_toml_spec_given_for_a_store_is_named_as_a_spec_not_as_missing(tmp_pat
     err = capsys.readouterr().err
     assert f"{spec} is a TOML spec, not a dataset: this expects a zarr store" in err
     assert "does not exist" not in err
+
+
+@pytest.mark.parametrize("command", ["verify", "show"])
+def test_a_folder_given_for_a_store_is_named_as_not_a_store_not_as_missing(
+    tmp_path, capsys, command
+):
+    from batecho.cli import main
+
+    (tmp_path / "notes.txt").write_text("not a dataset")
+    assert main(["dataset", command, str(tmp_path)]) != 0
+    err = capsys.readouterr().err
+    assert f"{tmp_path} is a folder but not a zarr store" in err
+    assert "does not exist" not in err

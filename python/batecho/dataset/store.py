@@ -304,13 +304,19 @@ def _open_group(store: StoreLike, mode: str = "r"):
 
 
 def _no_store(store: StoreLike) -> DatasetError:
-    """The error for a path that holds no zarr store: missing, or a file (a TOML spec?)."""
+    """The error for a path that holds no zarr store: missing, a file (a TOML spec?), or a
+    folder without a store's metadata."""
     p = Path(store)
     if "://" not in str(store) and p.is_file():
         what = "a TOML spec" if p.suffix.lower() == ".toml" else "a file"
         return DatasetError(
             f"{store} is {what}, not a dataset: this expects a zarr store (a folder such as "
             "small.zarr, written by batecho dataset generate SPEC.toml STORE.zarr)"
+        )
+    if "://" not in str(store) and p.is_dir():
+        return DatasetError(
+            f"{store} is a folder but not a zarr store (it has no zarr.json): this expects a "
+            "store written by batecho dataset generate SPEC.toml STORE.zarr"
         )
     return DatasetError(f"{store} does not exist (no zarr store there)")
 
