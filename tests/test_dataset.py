@@ -107,6 +107,7 @@ def test_spec_rejects_unknown_key_and_names_it():
         ({"poses.path": "line", "poses.run_length_m": 20.0}, r"poses\.run_length_m"),
         ({"sonar.beamwidth_deg": {"normal": [30.0, 5.0]}}, r"unknown distribution 'normal'"),
         ({"n_samples": 2.5}, r"n_samples must be an integer"),
+        ({"n_samples": 10**11}, r"n_samples = 100000000000: .* over batecho's memory limit"),
         ({"scene.kind": "jungle"}, r"scene\.kind must be one of"),
     ],
 )

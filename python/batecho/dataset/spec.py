@@ -28,6 +28,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .._resources import human_bytes, memory_limit
 from ..echoes.canonical import CANONICAL_BOX
 from ..forest.ipp import PAPER_WINDOW
 from ..sonar.shading import DEFAULT_LEAF_TRANSMISSION as _DEFAULT_LEAF_TRANSMISSION
@@ -48,6 +49,11 @@ __all__ = [
 
 #: Largest chunk (bytes of echo data) a worker holds in memory before writing it.
 MAX_CHUNK_BYTES = 1 << 30
+
+#: What the store's indexes take per sample (bytes) and per chunk (its index and marker),
+#: held whole by the process that creates, resumes or verifies it.
+INDEX_BYTES_PER_SAMPLE = 8
+INDEX_BYTES_PER_CHUNK = 16
 
 
 class SpecError(ValueError):
@@ -714,6 +720,14 @@ class DatasetSpec(_Section):
         if self.scene.reuse == "pool" and self.scene.pool_size > self.n_samples:
             raise SpecError(
                 f"scene.pool_size = {self.scene.pool_size} exceeds n_samples = {self.n_samples}"
+            )
+        index = INDEX_BYTES_PER_SAMPLE * self.n_samples + INDEX_BYTES_PER_CHUNK * self.n_chunks
+        if index > memory_limit():
+            raise SpecError(
+                f"n_samples = {self.n_samples}: the store's sample and chunk indexes need about "
+                f"{human_bytes(index)}, over batecho's memory limit of "
+                f"{human_bytes(memory_limit())}; split the dataset into several stores (or "
+                "raise the limit with batecho.set_memory_limit)"
             )
         r_min = self.sonar.min_leaf_radius_m
         if self.leaves.radius_min_m < r_min:
