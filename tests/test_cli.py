@@ -280,6 +280,44 @@ def test_output_obj_writes_the_scene(tmp_path):
     assert batecho.load_obj(tmp_path / "o" / "scene.obj").n_leaves == round(3.0 * 9 * 4 * 4)
 
 
+def _obj_scene_beside(tmp_path: Path, obj_text: str) -> Path:
+    """tmp_path/tree.obj holding ``obj_text`` and a scene file beside it that loads it and
+    asks for ``[output] obj = true``."""
+    (tmp_path / "tree.obj").write_text(obj_text, encoding="utf-8")
+    text = TINY.replace(
+        'kind = "leaf_box"\ndensity_per_m3 = 3.0', 'kind = "obj"\npath = "tree.obj"'
+    ).replace("[output]", "[output]\nobj = true")
+    return _write(tmp_path, text.replace("[flight]", "[flight]\nallow_low_clearance = true"))
+
+
+def test_output_obj_over_the_scenes_own_obj_file_is_refused_and_keeps_it(tmp_path, capsys):
+    scene = _obj_scene_beside(tmp_path, (FIXTURES / "obj" / "groups.obj").read_text())
+    (tmp_path / "tree.obj").rename(tmp_path / "scene.obj")
+    scene.write_text(scene.read_text().replace("tree.obj", "scene.obj"), encoding="utf-8")
+    before = (tmp_path / "scene.obj").read_bytes()
+    assert main(["simulate", str(scene), "--out", str(tmp_path), "--no-plots", "-q"]) == 2
+    assert "[output] obj = true would overwrite" in capsys.readouterr().err
+    assert (tmp_path / "scene.obj").read_bytes() == before
+
+
+def test_output_obj_over_a_material_library_of_the_scenes_obj_is_refused(tmp_path, capsys):
+    obj = (FIXTURES / "obj" / "materials.obj").read_text()
+    scene = _obj_scene_beside(tmp_path, obj.replace("mtllib materials.mtl", "mtllib scene.mtl"))
+    mtl = (FIXTURES / "obj" / "materials.mtl").read_bytes()
+    (tmp_path / "scene.mtl").write_bytes(mtl)
+    assert main(["simulate", str(scene), "--out", str(tmp_path), "--no-plots", "-q"]) == 2
+    assert "scene.mtl" in capsys.readouterr().err
+    assert (tmp_path / "scene.mtl").read_bytes() == mtl
+
+
+def test_output_obj_beside_an_obj_of_other_names_is_written(tmp_path):
+    scene = _obj_scene_beside(tmp_path, (FIXTURES / "obj" / "materials.obj").read_text())
+    (tmp_path / "materials.mtl").write_bytes((FIXTURES / "obj" / "materials.mtl").read_bytes())
+    for _ in range(2):  # (a rerun overwrites its own scene.obj)
+        assert main(["simulate", str(scene), "--out", str(tmp_path), "--no-plots", "-q"]) == 0
+    assert batecho.load_obj(tmp_path / "scene.obj").n_leaves == 1
+
+
 def test_sonar_params_round_trip_through_a_scene_file():
     sonar = batecho.Sonar(
         beam=batecho.Beam(sigma_deg=(10.0, 20.0), rotation_deg=15.0),

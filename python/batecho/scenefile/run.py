@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+import re
 import time
 import warnings
 from collections.abc import Callable
@@ -193,6 +194,7 @@ def run_scenefile(
         )
     say = progress or (lambda msg: None)
     out = check_output_folder(out_dir)
+    _check_obj_inputs_kept(sf, out)
     say("building the scene and the flight")
     st = setup_scenefile(sf)
     cfg = sf.config
@@ -284,6 +286,37 @@ def run_scenefile(
     if plots and oc["plots"]:
         files += _plots(st, echoes, idx, out, oc, say)
     return RunResult(st, echoes, files, timings, clearance, least, least_t)
+
+
+def _check_obj_inputs_kept(sf: SceneFile, out: Path) -> None:
+    """Refuse, before any work, ``[output] obj = true`` whose ``scene.obj`` or ``scene.mtl``
+    would overwrite an input of the scene: its OBJ file, or a material library that the OBJ
+    names (``mtllib``) in its folder."""
+    sc = sf.config["scene"]
+    if not sf.config["output"]["obj"] or sc["kind"] != "obj":
+        return
+    src = Path(sc["path"])
+    src = src if src.is_absolute() else sf.base_dir / src
+    hit = None
+    if _same_file(out / "scene.obj", src):
+        hit = out / "scene.obj", "OBJ file"
+    elif (out / "scene.mtl").exists() and _same_file(out, src.parent):
+        text = src.read_bytes() if src.is_file() else b""
+        names = re.findall(rb"^[ \t]*mtllib[ \t]+(.*)$", text, flags=re.MULTILINE)
+        if any(b"scene.mtl" in line.split() for line in names):
+            hit = out / "scene.mtl", f"material library (mtllib of {src})"
+    if hit is not None:
+        raise ScenefileError(
+            f"{sf.path or '<string>'}: [output] obj = true would overwrite {hit[0]}, the "
+            f"scene's own {hit[1]}; write to another folder (--out)"
+        )
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # (either is missing)
+        return False
 
 
 def _exports(echoes, out: Path, oc: dict, call, received, say) -> list[Path]:
