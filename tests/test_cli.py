@@ -335,6 +335,8 @@ def test_sonar_params_round_trip_through_a_scene_file():
     ("edit", "needle"),
     [
         (("radius = 6.2", "raduis = 6.2"), 'unknown key "raduis" (did you mean "radius"?)'),
+        (('heading = "center"', 'heading = "velocity"\ntarget = [5.5, 0.0, 0.0]'),
+         '[flight] target: only used with heading = "center" or "look_at"'),
         (("radius = 6.2", 'radius = "six"'), "[flight] radius: expected a number"),
         (("n_pulses = 5", "n_pulses = 5.5"), "[flight] n_pulses: expected an integer"),
         (('heading = "center"', 'heading = "north"'), "[flight] heading: 'north' is not one"),

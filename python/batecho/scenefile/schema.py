@@ -566,6 +566,11 @@ def check_document(doc: dict) -> dict[str, Any]:
         raise ScenefileError('[flight]: heading = "fixed" needs yaw_deg')
     if "yaw_deg" in fl and fl["heading"] != "fixed":
         raise ScenefileError('[flight] yaw_deg: only used with heading = "fixed"')
+    if "target" in fl and fl["path"] != "line" and fl["heading"] not in ("center", "look_at"):
+        raise ScenefileError(
+            '[flight] target: only used with heading = "center" or "look_at" (where the sonar '
+            f'looks), or path = "line" (where it ends); not with heading = "{fl["heading"]}"'
+        )
     so = cfg["sonar"]
     if "horseshoe_bat_khz" in so:
         f_khz = so["horseshoe_bat_khz"]
