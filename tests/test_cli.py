@@ -335,6 +335,7 @@ def test_sonar_params_round_trip_through_a_scene_file():
     ("edit", "needle"),
     [
         (("radius = 6.2", "raduis = 6.2"), 'unknown key "raduis" (did you mean "radius"?)'),
+        (("altitude = 0.0", "altitude = 1e16"), "[flight] a pulse is out of reach"),
         (('heading = "center"', 'heading = "velocity"\ntarget = [5.5, 0.0, 0.0]'),
          '[flight] target: only used with heading = "center" or "look_at"'),
         (("radius = 6.2", 'radius = "six"'), "[flight] radius: expected a number"),

@@ -104,7 +104,7 @@ def check_clearance(st: SimulationSetup) -> SolidClearance:
     true`` warned of (:class:`batecho.ClearanceWarning`)."""
     sf, fl = st.scenefile, st.scenefile.config["flight"]
     pos = st.plan.poses.positions
-    cl = solid_clearance(st.scene_object, pos, scene=st.scene)
+    cl = _clearance(st, pos, "a pulse")
     margin = fl["min_clearance_m"]
     msg = low_clearance(cl.distance, cl.part, pos, margin, noun="pulse") if margin > 0 else None
     if msg is not None:
@@ -116,6 +116,19 @@ def check_clearance(st: SimulationSetup) -> SolidClearance:
             )
         warnings.warn(msg, ClearanceWarning, stacklevel=3)
     return cl
+
+
+def _clearance(st: SimulationSetup, points: np.ndarray, what: str) -> SolidClearance:
+    """:func:`solid_clearance` of ``points`` (``what``: the pulses or the flight's steps);
+    points too far out to measure (a huge altitude or radius) name the scene file's
+    ``[flight]`` table."""
+    try:
+        return solid_clearance(st.scene_object, points, scene=st.scene)
+    except ValueError as exc:
+        raise ScenefileError(
+            f"{st.scenefile.path or '<string>'}: [flight] {what} is out of reach ({exc}); "
+            "check altitude, center, radius, start, target and points"
+        ) from None
 
 
 def sample_indices(p: int, k: int, closed: bool) -> np.ndarray:
@@ -149,7 +162,7 @@ def flight_min_clearance(
     the time is the pulse's, or None when the pulses are placed by count)."""
     fl = st.plan.flight
     if fl is not None:
-        d = solid_clearance(st.scene_object, fl.positions, scene=st.scene).distance
+        d = _clearance(st, fl.positions, "a step of the flight").distance
         i = int(np.argmin(d))
         return float(d[i]), float(fl.times[i])
     d = clearance.distance
