@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
+from _isolated import call_in_child
 
 import batecho
 from batecho.echoes.canonical import canonical_leaf_box
@@ -117,6 +118,20 @@ def _fake_result() -> Table1Result:
         n_leaves_lobe=np.full((P, T, R), 3000),
         settings={"seed": 5, "sonar": {"beamwidth_deg": 50.0}, "heading": "center"},
     )
+
+
+def test_table1_refuses_a_circle_too_large_for_memory_naming_points():
+    got = call_in_child("table1(points=[10**8], trees=[1], repeats=1, timing_runs=1)",
+                        setup="from batecho.paper import table1")  # fmt: skip
+    assert got["raised"] == "MemoryError"
+    assert "points = 100000000" in got["message"] and "memory limit" in got["message"]
+
+
+def test_paper_figures_refuse_an_echo_image_too_large_for_memory_naming_echo_pulses(tmp_path):
+    got = call_in_child(f"paper_figures({str(tmp_path)!r}, echo_pulses=10**9)",
+                        setup="from batecho.paper import paper_figures")  # fmt: skip
+    assert got["raised"] == "MemoryError"
+    assert "echo_pulses = 1000000000" in got["message"] and "memory limit" in got["message"]
 
 
 def test_table1_markdown_puts_the_papers_figures_beside_ours():

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import check_memory, echoes_bytes_per_pulse
 from ..echoes.simulate import lobe_members, simulate
 from ..flight.kinematic import circle, line_to
 from ..flight.poses import Poses, look_at
@@ -114,6 +115,14 @@ def paper_figures(
         plot_scene_3d,
     )
 
+    # The echo image's pulses, sized before any work (its beams are simulated one at a time).
+    n_e = int(echo_pulses)
+    s_e = paper_sonar(PAPER_BEAMWIDTHS_DEG[0])
+    check_memory(
+        n_e * echoes_bytes_per_pulse(s_e.n_bins, int(s_e.n_samples)),
+        f"echo_pulses = {n_e}: an echo image of {n_e} pulses around the circle",
+        "use fewer echo pulses",
+    )
     plt = _plt()
     out = make_output_folder(out_dir)
     ss = np.random.SeedSequence(int(seed))
@@ -255,7 +264,6 @@ def paper_figures(
     data["fig09_impulses"] = e8.impulse
     data["fig09_n_leaves"] = e8.n_leaves
 
-    n_e = int(echo_pulses)
     angles = 360.0 * np.arange(n_e) / n_e
     pe = circle(c2, R, Z, n_points=n_e, heading="center")
     fig, axes = plt.subplots(3, 1, figsize=(9, 9.5), constrained_layout=True, sharex=True)

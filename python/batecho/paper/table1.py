@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import check_memory, echoes_bytes_per_pulse
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, simulate
 from ..flight.kinematic import circle
 from ..forest.ipp import draw_tree_positions
@@ -274,6 +275,14 @@ def table1(
         raise ValueError(f"timing_runs must be an integer >= 1, got {timing_runs!r}")
     opts: dict[str, Any] = {"method": method, "tol": float(tol)}
     sonar = paper_sonar(beamwidth_deg, **(sonar_params or {}))
+    # The largest circle's echoes, sized before any forest is grown.
+    n = sonar._provisional_n() if sonar.is_auto else int(sonar.n_samples)
+    bins = (float(sonar.band_hz[1]) - float(sonar.band_hz[0])) * n / sonar.fs + 1.0
+    check_memory(
+        max(pts) * echoes_bytes_per_pulse(bins, n),
+        f"points = {max(pts)}: a circle of {max(pts)} pulses",
+        "use fewer points",
+    )
     settings: dict[str, Any] = {
         "method": method,
         "tol": float(tol),
