@@ -174,3 +174,14 @@ def test_a_folder_given_for_a_store_is_named_as_not_a_store_not_as_missing(
     err = capsys.readouterr().err
     assert f"{tmp_path} is a folder but not a zarr store" in err
     assert "does not exist" not in err
+
+
+def test_a_users_file_where_the_lock_goes_is_refused_and_left_as_it_was(tmp_path):
+    from batecho.dataset.guard import StoreLock
+
+    own = tmp_path / "out.zarr.lock"
+    own.write_text("my notes\n")
+    with pytest.raises(ValueError, match="not a lock"):
+        with StoreLock(tmp_path / "out.zarr"):
+            pass
+    assert own.read_text() == "my notes\n"

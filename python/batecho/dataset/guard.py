@@ -40,7 +40,7 @@ class StoreLock:
         import fcntl
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        f = open(self.path, "a+", encoding="utf-8")
+        f = open(self.path, "a+", encoding="utf-8", errors="replace")
         try:
             fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -51,6 +51,14 @@ class StoreLock:
                 f"{self.store} is being written by another 'batecho dataset generate' "
                 f"({holder}); wait for it to end, or stop it, then run again to resume"
             ) from None
+        f.seek(0)
+        before = f.read(64)
+        if before and not before.startswith("pid "):
+            f.close()  # (a file of the user's in the lock's place is left as it was)
+            raise ValueError(
+                f"{self.path} exists and is not a lock of 'batecho dataset generate' (which "
+                f"keeps one there while it writes {self.store}); move it away and run again"
+            )
         f.seek(0)
         f.truncate()
         f.write(f"pid {os.getpid()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
