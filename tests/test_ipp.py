@@ -310,6 +310,18 @@ def test_draw_tree_positions_refuses_an_intensity_zero_on_the_window_before_draw
         draw_tree_positions(3, 1, lambda x, y: 0.0 * x, max_rounds=5)
 
 
+def test_draw_tree_positions_refuses_a_count_far_out_of_reach_naming_it_and_the_rate():
+    # the paper's intensity gives 6.6 trees a realisation: a million trees in 100,000
+    # realisations cannot be drawn, which a thousand realisations show
+    with pytest.raises(ValueError, match=r"n_trees = 1000000 is out of reach.* about 6\.\d"):
+        draw_tree_positions(10**6, 1)
+
+
+def test_draw_tree_positions_draws_a_count_that_needs_every_allowed_realisation():
+    # 2000 rounds' worth of trees at 6.6 a round, allowed 2500 rounds: drawn, not refused early
+    assert len(draw_tree_positions(13_000, 2, max_rounds=2500)) == 13_000
+
+
 @pytest.mark.parametrize(
     "scalar_only",
     [lambda x, y: 0.1 if x < 5 else 0.0, lambda x, y: 0.1 * math.exp(-x)],

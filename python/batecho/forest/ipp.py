@@ -12,6 +12,7 @@ Units: metres for coordinates, points (trees) per m^2 for intensities.
 
 from __future__ import annotations
 
+import math
 import re
 import warnings
 from collections.abc import Callable
@@ -624,13 +625,24 @@ def draw_tree_positions(
         raise ValueError("the intensity is zero everywhere on the window: no tree can be drawn")
     got: list[np.ndarray] = []
     have = 0
-    for _ in range(int(max_rounds)):
+    rounds = int(max_rounds)
+    for done in range(1, rounds + 1):
         pts = sample_ipp(lam, window, gen, lambda_max=lam_max)
         got.append(pts)
         have += len(pts)
         if have >= n_trees:
             return np.concatenate(got)[:n_trees]
+        # (a count out of reach is refused early: the points of `done` rounds are Poisson, so
+        # their mean is below have + 5 sqrt(have) + 25 but for odds far below 1e-6; at that
+        # rate, all the rounds would still give fewer than n_trees)
+        if done == _EARLY_ROUNDS and (have + 5 * math.sqrt(have) + 25) * rounds < n_trees * done:
+            break
     raise ValueError(
-        f"the intensity gave only {have} points in {max_rounds} realisations; is it zero on "
-        "the window?"
+        f"n_trees = {n_trees} is out of reach: the intensity gives about {have / done:.3g} "
+        f"points a realisation ({have} in {done}), and at most {rounds} realisations are "
+        "drawn; ask for fewer trees, a larger intensity or window, or more max_rounds"
     )
+
+
+#: Realisations after which :func:`draw_tree_positions` judges whether its count is in reach.
+_EARLY_ROUNDS = 1000
