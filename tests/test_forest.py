@@ -134,6 +134,13 @@ def test_variant_j_does_not_depend_on_how_many_variants_are_grown():
         assert np.array_equal(a.variants[j].leaves.centers, b.variants[j].leaves.centers)
 
 
+def test_more_variants_than_memory_holds_are_refused_before_growing_them():
+    # two trees placed, ten million grown: refused at once, naming the variants
+    kw = {"tree": grow_lsystem_tree, "tree_params": SMALL}
+    with pytest.raises(MemoryError, match="10000000 grown"):
+        Forest.from_positions(np.zeros((2, 2)), 9, variants=10_000_000, **kw)
+
+
 def test_from_ipp_positions_match_sample_ipp_with_the_first_child_generator(paper_forest):
     gen = np.random.default_rng(2020)
     pos_gen = gen.spawn(3)[0] if hasattr(gen, "spawn") else None

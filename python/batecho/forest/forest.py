@@ -48,12 +48,13 @@ TreeFactory = Callable[..., Tree]
 
 
 def guard_forest(t: int, n_grow: int, leaves_per_tree: int, first_s: float) -> None:
-    """Before growing the rest of a forest: its leaves must fit the memory limit, and a growth
-    of more than a minute says so first (:class:`batecho._resources.SlowWarning`)."""
+    """Before growing the rest of a forest: its leaves must fit the memory limit, those of its
+    ``t`` placed trees and of its ``n_grow`` grown ones alike, and a growth of more than a minute
+    says so first (:class:`batecho._resources.SlowWarning`)."""
     check_memory(
-        t * leaves_per_tree * BYTES_PER_LEAF,
-        f"a forest of {t} trees of about {leaves_per_tree} leaves",
-        "use fewer trees (a smaller window or intensity, n_trees) or smaller trees",
+        max(t, n_grow) * leaves_per_tree * BYTES_PER_LEAF,
+        f"a forest of {t} trees from {n_grow} grown, of about {leaves_per_tree} leaves",
+        "use fewer trees (a smaller window or intensity, n_trees), fewer variants or smaller trees",
     )
     warn_if_slow(
         n_grow * first_s,
