@@ -216,6 +216,12 @@ def test_plot_scene_3d_writes_png(box, sonar, poses, tmp_path):
     assert isinstance(fig, Figure) and _png_ok(fig, tmp_path / "scene.png")
 
 
+@pytest.mark.parametrize("junk", ["yes", 1, np.zeros((2, 3))])
+def test_plot_scene_3d_refuses_branches_that_are_no_switch_and_no_branches(box, junk):
+    with pytest.raises(TypeError, match="branches must be None, True, False or a"):
+        plot_scene_3d(box, branches=junk)
+
+
 def test_plot_scene_3d_keys_each_lobe_and_says_what_it_thinned(box, sonar, poses):
     members = [batecho.lobe_members(box, sonar, poses[i]) for i in (0, 3)]
     fig = plot_scene_3d(box, poses, sonar, members=members, lobe_poses=[0, 3], max_points=100)

@@ -511,6 +511,10 @@ def _scene_branches(obj: Any, branches: Any, bark_drawn: bool):
         return None
     if isinstance(branches, Branches):
         return branches
+    if branches is not None and branches is not True:
+        raise TypeError(
+            f"branches must be None, True, False or a batecho.Branches, got {branches!r}"
+        )
     if branches is None and bark_drawn:
         return None
     own = getattr(obj, "branches", None)
