@@ -335,6 +335,13 @@ def test_line_starts_and_ends_at_rest_with_bounded_acceleration():
     assert np.linalg.norm(traj.acceleration(t), axis=1).max() <= 1.0 + 1e-9
 
 
+def test_a_line_too_short_for_its_speed_keeps_the_default_1_m_s2_peak_acceleration():
+    traj = Line([0.0, 0.0, 1.0], [1.0, 0.0, 1.0], speed=100.0)
+    t = np.linspace(0.0, traj.duration, 4001)
+    assert np.linalg.norm(traj.acceleration(t), axis=1).max() == pytest.approx(1.0, rel=1e-3)
+    np.testing.assert_allclose(traj.position(traj.duration), [1.0, 0.0, 1.0], atol=1e-12)
+
+
 def test_waypoints_pass_through_the_points_at_peak_speed():
     traj = TIMED["waypoints"]
     np.testing.assert_allclose(traj.position(traj.knot_times), traj.points, atol=1e-9)

@@ -315,8 +315,9 @@ class Line(Trajectory):
     ``1.875 speed / ramp_time`` (snap jumps at the ramp ends but stays finite). The default
     ramp gives a 1 m/s^2 peak. ``ramp_time=0`` flies at constant speed throughout (velocity
     steps at both ends, acceleration zero). If the line is too short to reach ``speed`` the
-    cruise speed is lowered to ``length / ramp_time``. Before t = 0 and after ``duration``
-    the position holds at the ends.
+    cruise speed is lowered: to ``length / ramp_time`` for a given ``ramp_time``, and with the
+    default ramp to ``sqrt(length / 1.875)``, whose ramp keeps the 1 m/s^2 peak. Before t = 0
+    and after ``duration`` the position holds at the ends.
     """
 
     def __init__(
@@ -343,7 +344,11 @@ class Line(Trajectory):
             else positive_scalar(ramp_time, "ramp_time", allow_zero=True)
         )
         if self.speed * tr > self.length:
-            self.speed = self.length / tr
+            if ramp_time is None:  # the fastest speed whose own 1 m/s^2 ramp fits the line
+                self.speed = math.sqrt(self.length / 1.875)
+                tr = 1.875 * self.speed
+            else:
+                self.speed = self.length / tr
         self.ramp_time = tr
         self.cruise_time = (self.length - self.speed * tr) / self.speed
         self.duration = 2.0 * tr + self.cruise_time
