@@ -342,6 +342,12 @@ def test_a_line_too_short_for_its_speed_keeps_the_default_1_m_s2_peak_accelerati
     np.testing.assert_allclose(traj.position(traj.duration), [1.0, 0.0, 1.0], atol=1e-12)
 
 
+def test_a_look_at_line_keeps_its_heading_on_arrival_at_the_target():
+    traj = Line([0.0, 0.0, 1.0], [3.0, 3.0, 1.0], heading="look_at")
+    t = np.array([0.0, traj.duration, traj.duration + 1.0])
+    np.testing.assert_allclose(traj.yaw(t), math.pi / 4, atol=1e-12)
+
+
 def test_waypoints_pass_through_the_points_at_peak_speed():
     traj = TIMED["waypoints"]
     np.testing.assert_allclose(traj.position(traj.knot_times), traj.points, atol=1e-9)

@@ -6,7 +6,9 @@ World frame: right-handed, z up, metres, seconds; yaw ``psi`` is the angle of th
 heading from +x toward +y (radians inside, degrees only in names ending ``_deg``). Heading
 modes (shared by all): ``"velocity"`` points the beam along the horizontal direction of
 travel; ``"center"`` / ``"look_at"`` at a point (``target``; the circle's centre at flight
-altitude by default); ``"fixed"`` at a constant yaw ``yaw_deg``.
+altitude by default; where the vehicle is right below or above it, as at the end of a
+look-at :class:`Line`, along the direction of travel); ``"fixed"`` at a constant yaw
+``yaw_deg``.
 """
 
 from __future__ import annotations
@@ -111,6 +113,11 @@ class Trajectory:
             p, v, a = (self._derivative(tt, k) for k in (0, 1, 2))
             assert self.target is not None  # set with heading "look_at"
             out = _planar_yaw(self.target[None, :] - p, -v, -a)
+            d = self.target[None, :2] - p[:, :2]
+            here = np.einsum("ij,ij->i", d, d) <= TINY
+            if here.any():  # at the target (a Line's end): the heading of travel there
+                for o, o_here in zip(out, _planar_yaw(*self._travel_direction(tt[here]))):
+                    o[here] = o_here
         else:
             out = _planar_yaw(*self._travel_direction(tt))
         yaw, rate, acc = out
