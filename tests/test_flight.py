@@ -379,6 +379,7 @@ def test_waypoints_pass_through_the_points_at_peak_speed():
         (lambda: circle(CENTER, heading="fixed"), "yaw_deg"),
         (lambda: line_to([0, 0, 1], [0.5, 0, 1], stop_distance=1.0), "stop_distance"),
         (lambda: Waypoints([[0, 0, 1], [0, 0, 1]]), "coincide"),
+        (lambda: Line([0, 0, 1], [0, 0, 5], heading="look_at"), "target"),
         (lambda: Quadrotor.crazyflie(mass=-1.0), "mass"),
         (lambda: SE3Gains(1.0, 1.0, 0.0, 1.0), "k_R"),
         (lambda: Quadrotor.crazyflie(omega_max=100.0), "hover"),

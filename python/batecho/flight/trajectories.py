@@ -360,11 +360,20 @@ class Line(Trajectory):
         self.cruise_time = (self.length - self.speed * tr) / self.speed
         self.duration = 2.0 * tr + self.cruise_time
         self._set_heading(heading, target, yaw_deg, self.end)
-        if self.heading == "velocity" and math.hypot(*self.direction[:2]) <= TINY:
+        vertical = math.hypot(*self.direction[:2]) <= TINY
+        if vertical and self.heading == "velocity":
             raise ValueError(
                 "a vertical Line has no horizontal direction of travel; use "
-                "heading='fixed' or 'look_at'"
+                "heading='fixed', or 'look_at' with a target off the line"
             )
+        if vertical and self.target is not None:
+            off = math.hypot(*(self.target[:2] - self.start[:2]))
+            if off * off <= TINY:  # as where look-at yaw is undefined
+                raise ValueError(
+                    f"the look-at target {self.target} is right above or below this vertical "
+                    "Line, so its heading is undefined all the way; use heading='fixed' or a "
+                    "target off the line"
+                )
 
     def _s(self, t: np.ndarray, order: int) -> np.ndarray:
         v, tr, T, L = self.speed, self.ramp_time, self.duration, self.length
