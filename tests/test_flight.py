@@ -355,6 +355,19 @@ def test_waypoints_pass_through_the_points_at_peak_speed():
     assert np.linalg.norm(traj.velocity(t), axis=1).max() == pytest.approx(2.0, rel=1e-3)
 
 
+
+@pytest.mark.parametrize(
+    "origin, gap", [((0.0, 0.0, 0.0), 1e-9), ((5e5, 4e6, 0.0), 3.0)], ids=["near", "utm"]
+)
+def test_a_closed_path_ending_near_its_first_point_is_continuous_where_it_repeats(origin, gap):
+    square = np.array([[0, 0, 1], [4, 0, 1], [4, 4, 1], [0, 4, 1.0]]) + origin
+    traj = Waypoints(np.vstack([square, square[:1] + [gap, 0.0, 0.0]]), closed=True)
+    T = traj.duration
+    np.testing.assert_allclose(traj.position(T - 1e-9), traj.position(T + 1e-9), atol=1e-6)
+    np.testing.assert_allclose(
+        traj.position(traj.knot_times[-2]), square[0] + [gap, 0, 0], rtol=0, atol=1e-6
+    )
+
 # ---------------------------------------------------------------------------- bad input
 
 

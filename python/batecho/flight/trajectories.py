@@ -415,7 +415,8 @@ class Waypoints(Trajectory):
     parameterisation), with the first and last segments given double time; the spline
     (``scipy.interpolate.make_interp_spline``, k = 5) starts and ends at rest (velocity and
     acceleration zero) unless ``closed``, in which case the path returns to the first point
-    and is periodic. The time axis is then scaled so that the fastest point of the path moves
+    and is periodic (a last point equal to the first is that return; one merely near it is a
+    waypoint of its own). The time axis is then scaled so that the fastest point of the path moves
     at ``speed`` m/s. Position is C4, so snap is continuous. Outside ``[0, duration]`` an open
     path holds its end points; a closed one repeats.
     """
@@ -438,7 +439,7 @@ class Waypoints(Trajectory):
         if self.closed:
             if len(pts) < 3:
                 raise ValueError("a closed Waypoints path needs at least 3 points")
-            if not np.allclose(pts[0], pts[-1]):
+            if not np.array_equal(pts[0], pts[-1]):  # a last point merely near is a waypoint
                 pts = np.vstack([pts, pts[:1]])
         chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
         if not (chords > 0).all():
