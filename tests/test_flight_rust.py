@@ -109,6 +109,20 @@ def test_an_unknown_method_is_refused_by_name():
         Quadrotor.crazyflie().fly(Hover(), 0.1, method="rk4")
 
 
+
+@pytest.mark.parametrize("method", ["rust", "python"])
+def test_a_dt_equal_to_the_motor_time_constant_flies_as_promised(method):
+    quad = Quadrotor.crazyflie()
+    flight = quad.fly(Hover((0.0, 0.0, 1.0)), 0.3, dt=quad.motor_time_constant, method=method)
+    assert len(flight) == 21 and np.diff(flight.times).max() <= quad.motor_time_constant
+    np.testing.assert_allclose(flight.times, np.arange(21) * 0.015, rtol=1e-14)
+
+
+@pytest.mark.parametrize("method", ["rust", "python"])
+def test_a_duration_far_below_dt_flies_one_step_of_that_duration(method):
+    flight = Quadrotor.crazyflie().fly(Hover((0.0, 0.0, 1.0)), 1e-15, dt=1e-3, method=method)
+    np.testing.assert_array_equal(flight.times, [0.0, 1e-15])
+
 # ------------------------------------------------------------------------- step by step
 
 

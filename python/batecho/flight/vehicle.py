@@ -64,6 +64,19 @@ GRAVITY = 9.81
 FLY_METHODS = ("rust", "python", "scipy")
 
 
+def _time_grid(n: int, h: float, T: float) -> np.ndarray:
+    """Times ``k h`` (k = 0..n) capped at ``T``, with no step longer than ``h``. Rounding can
+    make a step of ``k h`` an ulp longer than ``h``, over a ``dt`` at the motor time constant
+    (the integrators' limit); then the step is ``h`` rounded down to a float whose multiples
+    up to ``n h`` are exact."""
+    times = np.minimum(np.arange(n + 1) * h, T)
+    if np.diff(times).max() <= h:
+        return times
+    _, e = math.frexp(n * h)  # n h < 2**e, so multiples of 2**(e - 52) are exact up to it
+    q = 2.0 ** (e - 52)
+    return np.minimum(np.arange(n + 1) * (math.floor(h / q) * q), T)
+
+
 @dataclass(frozen=True, eq=False)
 class Gusts:
     """Wind as process noise: each world axis an Ornstein-Uhlenbeck velocity (m/s) about
@@ -376,7 +389,8 @@ class Quadrotor(MadeAgainOnLoading):
         gusts: Gusts | None = None,
         method: str = FLY_METHODS[0],
     ) -> Flight:
-        """Fly ``trajectory`` for ``duration`` s from t = 0 and record the state every ``dt``.
+        """Fly ``trajectory`` for ``duration`` s from t = 0 and record the state every ``dt``
+        (at most the motor time constant; a shorter ``duration`` is one step).
 
         Starts from ``initial_state`` or, by default, exactly on the reference
         (:meth:`initial_state`). ``gusts`` adds wind drawn from ``rng`` (a
@@ -409,8 +423,8 @@ class Quadrotor(MadeAgainOnLoading):
                 SlowWarning,
                 stacklevel=2,
             )
-        n = math.ceil(steps - 1e-9)
-        times = np.minimum(np.arange(n + 1) * h, T)
+        n = max(1, math.ceil(steps - 1e-9))
+        times = _time_grid(n, h, T)
         state = self.initial_state(trajectory) if initial_state is None else initial_state
         if not isinstance(state, QuadState):
             raise TypeError("initial_state must be a QuadState")
