@@ -232,6 +232,7 @@ def test_the_caller_s_arrays_are_not_modified_and_states_are_read_only():
         (lambda sim: sim.step([1, 0, 0], wind=[0, np.inf, 0]), "wind"),
         (lambda sim: sim.reset(np.zeros((2, 21))), "22"),
         (lambda sim: sim.reset(np.zeros((2, 22))), "rotation"),
+        (lambda sim: sim.reset(sim.state.vectors, time=np.nan), "time"),
     ],
 )
 def test_bad_commands_raise_value_error_naming_the_problem(call, match):
@@ -257,6 +258,12 @@ def test_a_simulation_of_too_many_drones_for_memory_is_refused_by_name():
     with pytest.raises(MemoryError, match="n_drones = 100000000"):
         QuadrotorSim(quad, quad.initial_state(Hover((0, 0, 1))), n_drones=10**8)
 
+
+def test_n_drones_that_disagrees_with_the_states_given_is_refused():
+    quad = Quadrotor.crazyflie()
+    states = [quad.initial_state(Hover((i, 0, 1))) for i in range(3)]
+    with pytest.raises(ValueError, match="n_drones"):
+        QuadrotorSim(quad, states, n_drones=5)
 
 def test_a_fractional_number_of_drones_is_refused():
     quad = Quadrotor.crazyflie()

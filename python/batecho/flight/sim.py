@@ -18,7 +18,7 @@ import numpy as np
 from .. import _core
 from .._pickle import ReadOnlyOnLoading
 from .._resources import check_memory
-from .._validate import finite, integer, positive_scalar, readonly, real_array
+from .._validate import finite, finite_scalar, integer, positive_scalar, readonly, real_array
 from .vehicle import Quadrotor, QuadState
 
 __all__ = ["QuadrotorSim", "SwarmState"]
@@ -85,6 +85,8 @@ def _state_rows(states: Any, n: int | None) -> np.ndarray:
             raise ValueError(f"states must have shape (n, 22), got {rows.shape}")
     if n is not None and len(rows) == 1 and n > 1:
         rows = np.repeat(rows, n, axis=0)
+    if n is not None and len(rows) != n:
+        raise ValueError(f"n_drones = {n} but {len(rows)} states were given; give one or {n}")
     return rows
 
 
@@ -93,9 +95,10 @@ class QuadrotorSim:
 
     ``QuadrotorSim(quad, states)``: ``states`` is a :class:`QuadState`, a list of them, or an
     (n, 22) array (see :meth:`QuadState.vector`); one state with ``n_drones`` > 1 starts every
-    drone there. :meth:`step` takes a velocity-and-yaw-rate command per drone and returns
-    their new :class:`SwarmState`; :attr:`path` holds the positions after every RK4 step of
-    the last call.
+    drone there (otherwise ``n_drones``, if given, must be the number of states). :meth:`step`
+    takes a velocity-and-yaw-rate command per drone and returns their new
+    :class:`SwarmState`; :attr:`path` holds the positions after every RK4 step of the last
+    call.
     """
 
     def __init__(self, quadrotor: Quadrotor, states: Any, n_drones: int | None = None):
@@ -140,8 +143,9 @@ class QuadrotorSim:
     def reset(self, states: Any, time: float = 0.0) -> SwarmState:
         """Puts the drones at ``states`` (as in the constructor; their number may change) and
         the clock at ``time`` (s)."""
+        t = finite_scalar(time, "time")
         self._swarm.reset(_state_rows(states, None))
-        self.time = float(time)
+        self.time = t
         self.path = readonly(np.empty((self.n_drones, 0, 3)))
         return self.state
 
