@@ -207,6 +207,21 @@ def test_pulse_times_too_many_for_memory_are_refused_by_name(circle_flight):
         flight.pulse_times(1e12)
 
 
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: circle(CENTER, n_points=10**11),
+        lambda: line_to([0, 0, 1], [5, 0, 1], n_points=10**11),
+        lambda: figure_eight(CENTER, n_points=10**11),
+        lambda: Circle(CENTER).times(rate_hz=1e12),
+    ],
+    ids=["circle", "line_to", "figure_eight", "times"],
+)
+def test_pulse_counts_too_many_for_memory_are_refused_by_name(call):
+    with pytest.raises(MemoryError, match="batecho's memory limit"):
+        call()
+
 # ---------------------------------------------------------------- attitude tilts the sonar
 
 

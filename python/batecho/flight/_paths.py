@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import BYTES_PER_POSE, check_memory
 from .._validate import finite, finite_scalar, integer, real_array, vectors
 
 HEADINGS = {
@@ -39,7 +40,10 @@ def point(p: Any, name: str) -> np.ndarray:
 
 
 def count(n: Any, name: str = "n_points") -> int:
-    return integer(n, name, 1, wrong_type=TypeError)
+    """A number of poses: an integer >= 1 whose poses fit in memory."""
+    k = integer(n, name, 1, wrong_type=TypeError)
+    check_memory(k * BYTES_PER_POSE, f"{name} = {k} poses", f"ask for fewer {name}")
+    return k
 
 
 def heading_mode(

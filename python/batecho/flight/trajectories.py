@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .._resources import BYTES_PER_POSE, check_memory
 from .._validate import finite, finite_scalar, positive_scalar, real_array, vectors
 from ._paths import TINY, center_xy, gerono, heading_mode, point
 from .poses import Poses
@@ -135,7 +136,13 @@ class Trajectory:
         dur = self.duration if duration is None else positive_scalar(duration, "duration")
         if not math.isfinite(dur):
             raise ValueError("this trajectory has no finite duration; pass duration=")
-        return np.arange(math.floor(dur * rate + 1e-9) + 1) / rate
+        k = math.floor(dur * rate + 1e-9) + 1
+        check_memory(
+            k * BYTES_PER_POSE,
+            f"times at rate_hz = {rate:g} over {dur:g} s ({k:.3g} of them, as poses)",
+            "use a lower rate or a shorter duration",
+        )
+        return np.arange(k) / rate
 
     def poses(self, t: Any, mount: Any = None) -> Poses:
         """Kinematic sonar poses at times ``t``: the body level (yaw from the heading mode,
