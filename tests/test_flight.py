@@ -207,7 +207,6 @@ def test_pulse_times_too_many_for_memory_are_refused_by_name(circle_flight):
         flight.pulse_times(1e12)
 
 
-
 @pytest.mark.parametrize(
     "call",
     [
@@ -221,6 +220,7 @@ def test_pulse_times_too_many_for_memory_are_refused_by_name(circle_flight):
 def test_pulse_counts_too_many_for_memory_are_refused_by_name(call):
     with pytest.raises(MemoryError, match="batecho's memory limit"):
         call()
+
 
 # ---------------------------------------------------------------- attitude tilts the sonar
 
@@ -370,7 +370,6 @@ def test_waypoints_pass_through_the_points_at_peak_speed():
     assert np.linalg.norm(traj.velocity(t), axis=1).max() == pytest.approx(2.0, rel=1e-3)
 
 
-
 @pytest.mark.parametrize(
     "origin, gap", [((0.0, 0.0, 0.0), 1e-9), ((5e5, 4e6, 0.0), 3.0)], ids=["near", "utm"]
 )
@@ -382,6 +381,7 @@ def test_a_closed_path_ending_near_its_first_point_is_continuous_where_it_repeat
     np.testing.assert_allclose(
         traj.position(traj.knot_times[-2]), square[0] + [gap, 0, 0], rtol=0, atol=1e-6
     )
+
 
 # ---------------------------------------------------------------------------- bad input
 

@@ -109,7 +109,6 @@ def test_an_unknown_method_is_refused_by_name():
         Quadrotor.crazyflie().fly(Hover(), 0.1, method="rk4")
 
 
-
 @pytest.mark.parametrize("method", ["rust", "python"])
 def test_a_dt_equal_to_the_motor_time_constant_flies_as_promised(method):
     quad = Quadrotor.crazyflie()
@@ -122,6 +121,7 @@ def test_a_dt_equal_to_the_motor_time_constant_flies_as_promised(method):
 def test_a_duration_far_below_dt_flies_one_step_of_that_duration(method):
     flight = Quadrotor.crazyflie().fly(Hover((0.0, 0.0, 1.0)), 1e-15, dt=1e-3, method=method)
     np.testing.assert_array_equal(flight.times, [0.0, 1e-15])
+
 
 # ------------------------------------------------------------------------- step by step
 
@@ -264,6 +264,7 @@ def test_n_drones_that_disagrees_with_the_states_given_is_refused():
     states = [quad.initial_state(Hover((i, 0, 1))) for i in range(3)]
     with pytest.raises(ValueError, match="n_drones"):
         QuadrotorSim(quad, states, n_drones=5)
+
 
 def test_a_fractional_number_of_drones_is_refused():
     quad = Quadrotor.crazyflie()

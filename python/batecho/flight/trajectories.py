@@ -117,7 +117,8 @@ class Trajectory:
             d = self.target[None, :2] - p[:, :2]
             here = np.einsum("ij,ij->i", d, d) <= TINY
             if here.any():  # at the target (a Line's end): the heading of travel there
-                for o, o_here in zip(out, _planar_yaw(*self._travel_direction(tt[here]))):
+                travel = _planar_yaw(*self._travel_direction(tt[here]))
+                for o, o_here in zip(out, travel, strict=True):
                     o[here] = o_here
         else:
             out = _planar_yaw(*self._travel_direction(tt))
