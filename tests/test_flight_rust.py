@@ -117,6 +117,12 @@ def test_a_dt_equal_to_the_motor_time_constant_flies_as_promised(method):
     np.testing.assert_allclose(flight.times, np.arange(21) * 0.015, rtol=1e-14)
 
 
+def test_a_flight_records_every_dt_and_ends_at_its_duration():
+    flight = Quadrotor.crazyflie().fly(Hover((0.0, 0.0, 1.0)), 5.0, dt=1e-3)
+    np.testing.assert_array_equal(flight.times, np.minimum(np.arange(5001) * 1e-3, 5.0))
+    assert flight.times[-1] == 5.0
+
+
 @pytest.mark.parametrize("method", ["rust", "python"])
 def test_a_duration_far_below_dt_flies_one_step_of_that_duration(method):
     flight = Quadrotor.crazyflie().fly(Hover((0.0, 0.0, 1.0)), 1e-15, dt=1e-3, method=method)
