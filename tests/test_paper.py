@@ -154,6 +154,13 @@ def test_table1_npz_keeps_the_settings(tmp_path):
         assert z["paper_times_s"][1, 1] == PAPER_TABLE1[15][1]
 
 
+def test_table1_npz_is_written_at_the_path_it_returns_without_an_npz_suffix(tmp_path):
+    path = _fake_result().to_npz(tmp_path / "t1.data")
+    assert path == tmp_path / "t1.data" and sorted(tmp_path.iterdir()) == [path]
+    with np.load(path) as z:
+        assert json.loads(str(z["settings_json"]))["seed"] == 5
+
+
 @pytest.fixture(scope="module")
 def small_table():
     return table1(points=(1, 5), trees=(1, 2), seed=3, repeats=1, timing_runs=1)

@@ -21,13 +21,16 @@ def write_npz(
 ) -> Path:
     """Write ``arrays`` (anything ``numpy.savez`` takes) to the NPZ file ``path``, each entry of
     ``json_fields`` as its JSON text (keys sorted), and ``batecho_version`` (this version,
-    unless ``arrays`` gives one). Returns the path; ``numpy.load`` reads it back."""
+    unless ``arrays`` gives one). Returns the path, which is ``path`` as given (no ``.npz``
+    is added to it); ``numpy.load`` reads it back."""
     out: dict[str, Any] = dict(arrays)
     for key, value in (json_fields or {}).items():
         out[key] = json.dumps(value, sort_keys=True)
     out.setdefault("batecho_version", __version__)
     p = Path(path)
-    np.savez(p, **out)
+    # (through an open file: given a name, numpy.savez writes to it with ".npz" appended)
+    with open(p, "wb") as f:
+        np.savez(f, **out)
     return p
 
 
