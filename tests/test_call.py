@@ -291,6 +291,14 @@ def test_writing_into_a_missing_folder_names_the_folder(one_ear, export, tmp_pat
         getattr(one_ear, export)(tmp_path / "nodir" / "e.out")
 
 
+@pytest.mark.parametrize("export", ["to_mat", "to_wav"])
+def test_writing_onto_a_folder_is_refused_naming_it(one_ear, export, tmp_path):
+    folder = tmp_path / "a_folder"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError, match="a_folder"):
+        getattr(one_ear, export)(folder)
+
+
 def test_a_time_expansion_given_as_text_is_refused(one_ear, tmp_path):
     with pytest.raises(TypeError, match="time_expansion"):
         one_ear.to_wav(tmp_path / "e.wav", time_expansion="10")

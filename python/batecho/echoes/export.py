@@ -8,6 +8,7 @@ receiver at the emitter (``"emitter"``) for a sonar without them.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 from pathlib import Path
@@ -206,8 +207,11 @@ def _received(echoes: Any, call: Call, received: Any) -> np.ndarray:
 
 
 def _file_to_write(path: str | os.PathLike) -> Path:
-    """``path`` as a Path whose folder exists (FileNotFoundError naming it otherwise)."""
+    """``path`` as a Path whose folder exists (FileNotFoundError naming it otherwise) and that
+    is not a folder itself (IsADirectoryError naming it)."""
     p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "cannot write the echoes onto a folder", str(p))
     if not p.parent.is_dir():
         raise FileNotFoundError(f"cannot write {p}: the folder {p.parent} does not exist")
     return p
