@@ -132,6 +132,37 @@ def test_bad_sonar_parameters_are_refused_naming_them(kw, match):
         Sonar(**kw)
 
 
+@pytest.mark.parametrize("spreading", ["False", "no", None, 2])
+def test_a_spreading_that_is_not_true_or_false_is_refused(spreading):
+    # bool("False") is True: the 1/r^2 would be kept silently
+    with pytest.raises(TypeError, match="spreading"):
+        Sonar(spreading=spreading)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(fs="400e3"),
+        dict(sound_speed="340"),
+        dict(gain=True),
+        dict(threshold_db="20"),
+        dict(band_hz=("60e3", "80e3")),
+        dict(max_range_m="5"),
+        dict(record_tail_s="0.001"),
+        dict(min_ka="0.5"),
+    ],
+    ids=lambda kw: next(iter(kw)),
+)
+def test_sonar_numbers_given_as_text_or_flags_are_refused_naming_them(kw):
+    with pytest.raises(TypeError, match=next(iter(kw))):
+        Sonar(**kw)
+
+
+def test_an_atmosphere_given_text_is_refused_naming_it():
+    with pytest.raises(TypeError, match="temperature_c"):
+        batecho.Atmosphere(temperature_c="20")
+
+
 def test_n_samples_must_be_an_integer():
     with pytest.raises(TypeError, match="n_samples"):
         Sonar(n_samples=24000.5)

@@ -55,13 +55,13 @@ class Atmosphere:
 
     def __post_init__(self):
         keep_python_values(self, ("temperature_c", "relative_humidity", "pressure_pa"))
-        t = finite_scalar(self.temperature_c, "temperature_c")
+        t = finite_scalar(self.temperature_c, "temperature_c", strict=True)
         if not -100.0 <= t <= 100.0:
             raise ValueError(f"temperature_c must be in [-100, 100], got {t}")
-        h = finite_scalar(self.relative_humidity, "relative_humidity")
+        h = finite_scalar(self.relative_humidity, "relative_humidity", strict=True)
         if not 0.0 <= h <= 100.0:
             raise ValueError(f"relative_humidity must be in [0, 100] %, got {h}")
-        p = finite_scalar(self.pressure_pa, "pressure_pa")
+        p = finite_scalar(self.pressure_pa, "pressure_pa", strict=True)
         if not MIN_PRESSURE_PA <= p <= MAX_PRESSURE_PA:
             raise ValueError(
                 f"pressure_pa must be in [{MIN_PRESSURE_PA:g}, {MAX_PRESSURE_PA:g}] Pa (ISO "

@@ -177,7 +177,10 @@ class Sonar(MadeAgainOnLoading):
             raise TypeError(
                 f"shading must be None or a batecho.Shading, got {type(self.shading).__name__}"
             )
-        scale = finite_scalar(self.branch_piece_scale, "branch_piece_scale")
+        if not isinstance(self.spreading, bool):
+            raise TypeError(f"spreading must be True or False, got {self.spreading!r}")
+        # (numbers as numbers: text such as "400e3" would be kept as given and fail later)
+        scale = finite_scalar(self.branch_piece_scale, "branch_piece_scale", strict=True)
         if not 0.0 < scale <= 1.0:
             raise ValueError(f"branch_piece_scale must be in (0, 1], got {scale!r}")
         auto = isinstance(self.n_samples, str)
@@ -189,29 +192,31 @@ class Sonar(MadeAgainOnLoading):
                 raise ValueError(
                     f"n_samples must be at most 2^31 = {MAX_N_SAMPLES}, got {self.n_samples!r}"
                 )
-        positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True)
+        positive_scalar(self.record_tail_s, "record_tail_s", allow_zero=True, strict=True)
         try:
             band = tuple(self.band_hz)
         except TypeError:
             raise TypeError(f"band_hz must be (f_lo, f_hi) in Hz, got {self.band_hz!r}") from None
         if len(band) != 2:
             raise ValueError(f"band_hz must be (f_lo, f_hi), got {self.band_hz!r}")
-        f_lo, f_hi = (finite_scalar(v, "band_hz") for v in band)
+        f_lo, f_hi = (finite_scalar(v, "band_hz", strict=True) for v in band)
         num = {
-            name: positive_scalar(getattr(self, name), name)
+            name: positive_scalar(getattr(self, name), name, strict=True)
             for name in ("sound_speed", "r0_m", "p0_pa", "p_ref_pa", "gain", "min_range_m")
         }
-        num["threshold_db"] = finite_scalar(self.threshold_db, "threshold_db")
+        num["threshold_db"] = finite_scalar(self.threshold_db, "threshold_db", strict=True)
         if abs(num["threshold_db"]) > MAX_ABS_THRESHOLD_DB:
             raise ValueError(
                 f"threshold_db must be in [-{MAX_ABS_THRESHOLD_DB:g}, {MAX_ABS_THRESHOLD_DB:g}] "
                 f"dB, got {self.threshold_db!r}"
             )
-        num["min_ka"] = positive_scalar(self.min_ka, "min_ka", allow_zero=True)
+        num["min_ka"] = positive_scalar(self.min_ka, "min_ka", allow_zero=True, strict=True)
         max_range = (
-            None if self.max_range_m is None else positive_scalar(self.max_range_m, "max_range_m")
+            None
+            if self.max_range_m is None
+            else positive_scalar(self.max_range_m, "max_range_m", strict=True)
         )
-        fs = positive_scalar(self.fs, "fs")
+        fs = positive_scalar(self.fs, "fs", strict=True)
         if f_hi > fs / 2:
             raise ValueError(
                 f"band upper edge {f_hi} Hz is above the Nyquist frequency fs/2 = {fs / 2} Hz"
@@ -220,7 +225,7 @@ class Sonar(MadeAgainOnLoading):
         if self.lobe == "cone":
             if self.cone_half_angle_deg is None:
                 raise ValueError("lobe='cone' needs cone_half_angle_deg")
-            h = finite_scalar(self.cone_half_angle_deg, "cone_half_angle_deg")
+            h = finite_scalar(self.cone_half_angle_deg, "cone_half_angle_deg", strict=True)
             if not 0.0 < h < 180.0:
                 raise ValueError(f"cone_half_angle_deg must be in (0, 180), got {h}")
             cone = math.radians(h)
