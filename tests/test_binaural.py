@@ -73,6 +73,26 @@ def test_the_two_ear_figures_have_a_panel_per_ear(sweep):
         plt.close(f)
 
 
+@pytest.mark.parametrize("max_range_m", [-1.0, 0.0, math.nan])
+@pytest.mark.parametrize(
+    "cue",
+    [
+        interaural_level_difference,
+        interaural_time_difference,
+        batecho.plotting.plot_binaural_impulses,
+        batecho.plotting.plot_binaural_echo_images,
+        batecho.plotting.plot_interaural_differences,
+    ],
+)
+def test_a_max_range_that_is_not_positive_is_refused_naming_it(sweep, cue, max_range_m):
+    # (the cues were NaN for every pulse, as though no ear heard anything)
+    import matplotlib.pyplot as plt
+
+    with pytest.raises(ValueError, match="max_range_m"):
+        cue(sweep[0], max_range_m=max_range_m)
+    plt.close("all")
+
+
 def test_one_receivers_echoes_are_the_slice_of_its_axis(sweep):
     e, _ = sweep
     right = e.for_receiver(1)

@@ -378,6 +378,23 @@ def test_the_echo_image_refuses_a_dynamic_range_that_is_not_positive(echoes):
         plot_echo_image(echoes, dynamic_range_db=-10.0)
 
 
+@pytest.mark.parametrize("max_range_m", [-1.0, 0.0, math.nan])
+@pytest.mark.parametrize(
+    "plot",
+    [
+        plot_impulse,
+        plot_echo_image,
+        lambda e, max_range_m: plot_impulses(e, [0, 1], max_range_m=max_range_m),
+    ],
+    ids=["plot_impulse", "plot_echo_image", "plot_impulses"],
+)
+def test_a_max_range_that_is_not_positive_is_refused_naming_it(echoes, plot, max_range_m):
+    # (it drew a record cut to nothing, titled "no echo", or failed with an IndexError)
+    with pytest.raises(ValueError, match="max_range_m"):
+        plot(echoes, max_range_m=max_range_m)
+    plt.close("all")
+
+
 def test_the_spectrogram_refuses_segments_longer_than_the_record_or_empty(echoes):
     for nperseg in (0, 10**9):
         with pytest.raises(ValueError, match="nperseg"):

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from .simulate import samples_within
+
 __all__ = ["interaural_level_difference", "interaural_time_difference"]
 
 
@@ -22,10 +24,6 @@ def _pair(echoes: Any, ears: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     return echoes.impulse[:, a], echoes.impulse[:, b]
 
 
-def _window(echoes: Any, max_range_m: float | None) -> np.ndarray:
-    return np.ones(echoes.times.size, bool) if max_range_m is None else echoes.ranges <= max_range_m
-
-
 def interaural_level_difference(
     echoes: Any, ears: tuple[int, int] = (0, 1), max_range_m: float | None = None
 ) -> np.ndarray:
@@ -33,7 +31,7 @@ def interaural_level_difference(
     receivers ``ears = (a, b)`` (left minus right for :meth:`Sonar.binaural`), over the record
     or out to ``max_range_m``; NaN where either ear hears nothing."""
     a, b = _pair(echoes, ears)
-    keep = _window(echoes, max_range_m)
+    keep = samples_within(echoes, max_range_m)
     ea = np.sum(a[:, keep] ** 2, axis=-1)
     eb = np.sum(b[:, keep] ** 2, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -55,7 +53,7 @@ def interaural_time_difference(
     from scipy.signal import hilbert
 
     a, b = _pair(echoes, ears)
-    keep = _window(echoes, max_range_m)
+    keep = samples_within(echoes, max_range_m)
     fs = echoes.sonar.fs
     if max_lag_s is None:
         rxs = echoes.sonar.receivers

@@ -181,6 +181,19 @@ class Echoes:
         return to_mat(self, path, call, received)
 
 
+def samples_within(echoes: Echoes, max_range_m: Any) -> np.ndarray:
+    """(n_samples,) bool: the samples of ``echoes`` at ranges up to ``max_range_m`` (m; None:
+    every sample), as the figures and the interaural cues cut the record. A ``max_range_m``
+    that is not a number > 0 (NaN, 0, negative) would keep no sample: ValueError naming it."""
+    if max_range_m is None:
+        return np.ones(echoes.times.size, dtype=bool)
+    if isinstance(max_range_m, bool) or not isinstance(max_range_m, (int, float, np.number)):
+        raise TypeError(f"max_range_m must be a number (m) or None, got {max_range_m!r}")
+    if not max_range_m > 0:
+        raise ValueError(f"max_range_m must be > 0 (m) or None, got {max_range_m!r}")
+    return echoes.ranges <= float(max_range_m)
+
+
 def method_and_tol(method: Any, tol: Any) -> tuple[str, float]:
     """``method`` (one of :data:`METHODS`) and ``tol`` (a number in (0, 1)) as
     :func:`simulate` takes them, or a clear error."""
@@ -378,6 +391,7 @@ __all__ = [
     "leaf_sights",
     "lobe_members",
     "refuse_receivers",
+    "samples_within",
     "simulate",
     "warn_low_clearance",
 ]

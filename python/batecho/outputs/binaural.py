@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..echoes.binaural import interaural_level_difference, interaural_time_difference
+from ..echoes.simulate import samples_within
 from .plots import _db, _edges, _plt, plot_impulse
 
 __all__ = ["plot_binaural_echo_images", "plot_binaural_impulses", "plot_interaural_differences"]
@@ -71,7 +72,7 @@ def plot_binaural_echo_images(
     env = echoes.envelope()
     db = _db(env, float(env.max()))
     rng = echoes.ranges
-    keep = rng <= (rng[-1] if max_range_m is None else float(max_range_m))
+    keep = samples_within(echoes, max_range_m)
     r_edges = _edges(rng[keep])
     r_edges[0] = max(r_edges[0], 0.0)
     fig, axes = plt.subplots(1, r, figsize=(5.5 * r, 4), sharey=True, constrained_layout=True)
@@ -100,9 +101,7 @@ def plot_binaural_echo_images(
 
 def _silent_ears(echoes, max_range_m: float | None) -> np.ndarray:
     """(p, R) True where a receiver's impulse response is zero over the window."""
-    y = echoes.impulse
-    if max_range_m is not None:
-        y = y[..., echoes.ranges <= max_range_m]
+    y = echoes.impulse[..., samples_within(echoes, max_range_m)]
     return ~np.any(y != 0.0, axis=-1)
 
 

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from ..echoes.simulate import samples_within
+
 __all__ = [
     "WOOD_COLOR",
     "echo_image_reference",
@@ -129,7 +131,7 @@ def plot_impulse(
     t_ms = echoes.times * 1e3
     y = echoes.impulse[index]
     v = echoes.sonar.sound_speed
-    keep = slice(None) if max_range_m is None else echoes.ranges <= max_range_m
+    keep = samples_within(echoes, max_range_m)
     scale, unit = _scale_of(float(np.max(np.abs(y[keep]), initial=0.0)))
     ax.plot(t_ms[keep], y[keep] / scale, lw=0.5, color=IMPULSE_COLOR, label="impulse response")
     if envelope:
@@ -315,8 +317,7 @@ def plot_echo_image(
     if not 0.0 < float(percentile) <= 100.0:
         raise ValueError(f"percentile must be in (0, 100], got {percentile!r}")
     rng = echoes.ranges
-    rmax = rng[-1] if max_range_m is None else float(max_range_m)
-    keep = rng <= rmax
+    keep = samples_within(echoes, max_range_m)
     env = echoes.envelope()[:, keep]
     db = _db(env, echo_image_reference(env, float(percentile), 2.0 * dynamic_range_db))
     p = len(echoes)
