@@ -93,6 +93,12 @@ def test_a_max_range_that_is_not_positive_is_refused_naming_it(sweep, cue, max_r
     plt.close("all")
 
 
+@pytest.mark.parametrize("db", [-10.0, 0.0, math.nan])
+def test_the_two_ear_echo_images_refuse_a_dynamic_range_that_is_not_positive(sweep, db):
+    with pytest.raises(ValueError, match="dynamic_range_db"):
+        batecho.plotting.plot_binaural_echo_images(sweep[0], dynamic_range_db=db)
+
+
 def test_one_receivers_echoes_are_the_slice_of_its_axis(sweep):
     e, _ = sweep
     right = e.for_receiver(1)

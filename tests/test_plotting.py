@@ -395,6 +395,13 @@ def test_a_max_range_that_is_not_positive_is_refused_naming_it(echoes, plot, max
     plt.close("all")
 
 
+@pytest.mark.parametrize("db", [np.float32(40.0), np.int64(40)])
+def test_the_echo_image_takes_a_dynamic_range_given_as_a_numpy_number(echoes, db):
+    fig = plot_echo_image(echoes, dynamic_range_db=db)
+    assert fig.axes[0].collections[0].get_clim() == (-40.0, 0.0)
+    plt.close(fig)
+
+
 def test_the_spectrogram_refuses_segments_longer_than_the_record_or_empty(echoes):
     for nperseg in (0, 10**9):
         with pytest.raises(ValueError, match="nperseg"):

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import positive_scalar
 from ..echoes.binaural import interaural_level_difference, interaural_time_difference
 from ..echoes.simulate import samples_within
 from .plots import _db, _edges, _plt, plot_impulse
@@ -61,6 +62,7 @@ def plot_binaural_echo_images(
     """The echo images (envelope in dB, pulses by range) of each receiver side by side, all in
     dB re the largest envelope of any receiver, so that the ears' levels compare."""
     _check(echoes)
+    dynamic_range_db = positive_scalar(dynamic_range_db, "dynamic_range_db", strict=True)
     plt = _plt()
     r, p = echoes.n_receivers, len(echoes)
     xs = np.arange(p, dtype=np.float64) if x is None else np.asarray(x, dtype=np.float64)

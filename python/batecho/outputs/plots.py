@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import positive_scalar
 from ..echoes.simulate import samples_within
 
 __all__ = [
@@ -308,8 +309,7 @@ def plot_echo_image(
     branches, the wood's own echo is outlined on top (:func:`overlay_wood_echoes`).
     """
     _one_receiver(echoes, "plot_echo_image")
-    if not (isinstance(dynamic_range_db, (int, float)) and 0.0 < dynamic_range_db < math.inf):
-        raise ValueError(f"dynamic_range_db must be a finite number > 0, got {dynamic_range_db!r}")
+    dynamic_range_db = positive_scalar(dynamic_range_db, "dynamic_range_db", strict=True)
     plt = _plt()
     fig = None
     if ax is None:
