@@ -402,6 +402,20 @@ def test_the_echo_image_takes_a_dynamic_range_given_as_a_numpy_number(echoes, db
     plt.close(fig)
 
 
+@pytest.mark.parametrize("indices", [[0.7, 1], np.array([0.5, 1.5]), "01"])
+def test_plot_impulses_refuses_pose_indices_that_are_not_ints(echoes, indices):
+    # (int() truncated them: [0.7, 1] drew pose 0)
+    with pytest.raises(TypeError, match="index"):
+        plot_impulses(echoes, indices)
+    plt.close("all")
+
+
+def test_plot_impulses_refuses_titles_that_do_not_name_each_panel(echoes):
+    with pytest.raises(ValueError, match="titles"):
+        plot_impulses(echoes, [0, 1, 2], titles=["a"])
+    plt.close("all")
+
+
 def test_the_spectrogram_refuses_segments_longer_than_the_record_or_empty(echoes):
     for nperseg in (0, 10**9):
         with pytest.raises(ValueError, match="nperseg"):

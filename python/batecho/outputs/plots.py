@@ -218,9 +218,11 @@ def plot_impulses(
     range axis on the top row only; one legend below the grid.
     """
     plt = _plt()
-    indices = [int(i) for i in indices]
+    indices = [_pose(echoes, i) for i in indices]
     if not indices:
         raise ValueError("plot_impulses needs at least one pose index")
+    if titles is not None and len(titles) != len(indices):
+        raise ValueError(f"titles must name each of the {len(indices)} panels, got {len(titles)}")
     ncols = max(1, min(int(ncols), len(indices)))
     nrows = math.ceil(len(indices) / ncols)
     fig, axes = plt.subplots(
