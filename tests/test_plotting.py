@@ -416,6 +416,14 @@ def test_plot_impulses_refuses_titles_that_do_not_name_each_panel(echoes):
     plt.close("all")
 
 
+@pytest.mark.parametrize("margin_hz", [-1e6, math.nan])
+def test_the_spectrogram_refuses_a_margin_that_is_negative_or_nan(echoes, margin_hz):
+    # (a negative margin turned the frequency axis upside down, past the band)
+    with pytest.raises(ValueError, match="margin_hz"):
+        plot_spectrogram(echoes, margin_hz=margin_hz)
+    plt.close("all")
+
+
 def test_the_spectrogram_refuses_segments_longer_than_the_record_or_empty(echoes):
     for nperseg in (0, 10**9):
         with pytest.raises(ValueError, match="nperseg"):

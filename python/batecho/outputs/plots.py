@@ -400,9 +400,9 @@ def plot_spectrogram(
     shown.
 
     The frequency axis spans the band and ``margin_hz`` on either side (default a quarter of
-    the band's width): the record holds nothing outside the band. The segments are not
-    detrended (SciPy's default removes each segment's mean before the window, which leaves
-    a false line at 0 Hz).
+    the band's width; finite and >= 0): the record holds nothing outside the band. The
+    segments are not detrended (SciPy's default removes each segment's mean before the
+    window, which leaves a false line at 0 Hz).
     """
     from scipy.signal import spectrogram
 
@@ -413,6 +413,8 @@ def plot_spectrogram(
         raise TypeError(f"nperseg must be an int, got {nperseg!r}")
     if not 2 <= nperseg <= n:
         raise ValueError(f"nperseg must be in [2, {n}] (the record's samples), got {nperseg}")
+    if margin_hz is not None:
+        margin_hz = positive_scalar(margin_hz, "margin_hz", allow_zero=True, strict=True)
     plt = _plt()
     fig = None
     if ax is None:
