@@ -150,6 +150,18 @@ def test_bad_calls_are_refused_by_name(make, match):
         make()
 
 
+@pytest.mark.parametrize("make", [Call.linear_fm, Call.hyperbolic_fm])
+def test_a_sweep_that_its_window_silences_is_refused_naming_its_duration(make):
+    # two samples under a Hann window are both zero: "scale the samples" named none of this
+    with pytest.raises(ValueError, match=r"duration_s = 5e-06 s .* hann"):
+        make(80e3, 60e3, 5e-6)
+
+
+def test_noise_beyond_float64_is_refused_naming_noise_rms(one_ear):
+    with pytest.raises(ValueError, match="noise_rms"):
+        one_ear.received(CALLS["linear_fm"](), noise_rms=1e308, rng=0)
+
+
 @pytest.mark.parametrize("samples", [np.zeros(50), np.full(50, 1e-170), np.full(50, 1e160)])
 def test_a_call_whose_energy_is_zero_or_overflows_is_refused(samples):
     # the matched filter divides by the energy: NaN or zero everywhere otherwise

@@ -40,6 +40,8 @@ def received(
     y = np.asarray(oaconvolve(h, c, axes=-1)[..., :n], dtype=np.float64)
     if sigma > 0.0:
         y = y + generator(rng).normal(0.0, sigma, size=y.shape)
+        if not np.all(np.isfinite(y)):
+            raise ValueError(f"noise_rms = {noise_rms!r} gives noise beyond float64's range")
     return y
 
 

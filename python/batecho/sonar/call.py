@@ -41,6 +41,18 @@ def _n_samples(duration_s: float, fs: float) -> int:
     return m
 
 
+def _windowed(wave: np.ndarray, window: str, duration_s: float, fs: float) -> np.ndarray:
+    """``wave`` times the window ``window``; a ValueError naming the duration when the window
+    leaves no sample (two samples under a Hann window are both zero)."""
+    x = wave * _window(window, wave.size)
+    if not np.any(x):
+        raise ValueError(
+            f"duration_s = {duration_s} s at fs = {fs} Hz is {wave.size} samples, all zero "
+            f"under the {window} window; lengthen the call"
+        )
+    return x
+
+
 def _band(f: float, fs: float, name: str) -> float:
     f = positive_scalar(f, name)
     if f >= fs / 2:
@@ -129,7 +141,7 @@ class Call(ReadOnlyOnLoading):
         m = _n_samples(T, fs)
         t = np.arange(m) / fs
         phase = 2.0 * np.pi * (f0 * t + (f1 - f0) * t * t / (2.0 * T))
-        return cls(np.sin(phase) * _window(window, m), fs, "linear_fm")
+        return cls(_windowed(np.sin(phase), window, T, fs), fs, "linear_fm")
 
     @classmethod
     def hyperbolic_fm(
@@ -153,7 +165,7 @@ class Call(ReadOnlyOnLoading):
             phase = 2.0 * np.pi * f0 * t
         else:
             phase = 2.0 * np.pi * np.log1p(b * f0 * t) / b
-        return cls(np.sin(phase) * _window(window, m), fs, "hyperbolic_fm")
+        return cls(_windowed(np.sin(phase), window, T, fs), fs, "hyperbolic_fm")
 
     @classmethod
     def cf_fm(
@@ -181,7 +193,7 @@ class Call(ReadOnlyOnLoading):
         tau = np.clip(t - t_cf, 0.0, None)
         sweep = (fe - fc) * tau * tau / (2.0 * Tf) if Tf > 0 else 0.0 * tau
         phase = 2.0 * np.pi * (fc * t + sweep)
-        return cls(np.sin(phase) * _window(window, m), fs, "cf_fm")
+        return cls(_windowed(np.sin(phase), window, T, fs), fs, "cf_fm")
 
     def __repr__(self) -> str:
         return f"Call({self.name}, {self.duration_s * 1e3:.3g} ms at {self.fs:g} Hz)"
