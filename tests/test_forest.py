@@ -225,6 +225,19 @@ def test_bad_forest_arguments_raise(small_tree, kwargs):
         Forest.from_positions([[0.0, 0.0]], 0, tree=grow_lsystem_tree, tree_params=SMALL, **kwargs)
 
 
+@pytest.mark.parametrize("positions", [[[0.0, 0.0, 0.0], [5.0, 5.0, 0.0]], [0.0, 0.0, 5.0, 5.0]])
+def test_from_positions_refuses_positions_not_shaped_t_by_2(small_tree, positions):
+    with pytest.raises(ValueError, match=r"positions must have shape \(t, 2\)"):
+        Forest.from_positions(positions, 0, tree=small_tree)
+
+
+def test_make_forest_refuses_positions_with_a_third_column():
+    from batecho.forest.models import make_forest
+
+    with pytest.raises(ValueError, match=r"positions must have shape \(t, 2\)"):
+        make_forest([[0.0, 0.0, 0.0], [5.0, 5.0, 0.0]], np.random.default_rng(0), "lsystem", SMALL)
+
+
 def test_forest_constructor_validates_its_arrays(small_tree):
     with pytest.raises(ValueError):
         Forest([small_tree], [[0.0, 0.0], [1.0, 1.0]])

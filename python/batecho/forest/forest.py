@@ -104,13 +104,7 @@ class Forest(ReadOnlyOnLoading):
         for i, v in enumerate(vs):
             if not isinstance(v, Tree):
                 raise TypeError(f"variants[{i}] must be a Tree, got {type(v).__name__}")
-        pos = np.array(positions, dtype=np.float64)
-        if pos.size == 0:
-            pos = pos.reshape(0, 2)
-        if pos.ndim != 2 or pos.shape[1] != 2:
-            raise ValueError(f"positions must have shape (t, 2), got {pos.shape}")
-        if not np.isfinite(pos).all():
-            raise ValueError("positions must be finite")
+        pos = _ground_positions(positions)
         t = len(pos)
         rot = np.zeros(t) if rotations_deg is None else np.array(rotations_deg, dtype=np.float64)
         sc = np.ones(t) if scales is None else np.array(scales, dtype=np.float64)
@@ -254,7 +248,7 @@ class Forest(ReadOnlyOnLoading):
         scale_leaves: bool,
         params: dict[str, Any],
     ) -> Forest:
-        pos = np.array(positions, dtype=np.float64).reshape(-1, 2)
+        pos = _ground_positions(positions)  # (checked before any tree grows)
         t = len(pos)
         positive_scalar(scale_sd, "scale_sd", allow_zero=True, strict=True)
         if variants is not None:
@@ -613,6 +607,18 @@ class Forest(ReadOnlyOnLoading):
             f"Forest(n_trees={self.n_trees}, variants={len(self._variants)}, "
             f"n_leaves={self.n_leaves})"
         )
+
+
+def _ground_positions(positions: Any) -> np.ndarray:
+    """A new finite (t, 2) float64 array of ground positions (m); an empty one is (0, 2)."""
+    pos = np.array(positions, dtype=np.float64)
+    if pos.size == 0:
+        pos = pos.reshape(0, 2)
+    if pos.ndim != 2 or pos.shape[1] != 2:
+        raise ValueError(f"positions must have shape (t, 2), got {pos.shape}")
+    if not np.isfinite(pos).all():
+        raise ValueError("positions must be finite")
+    return pos
 
 
 def _hull_points(points: np.ndarray) -> np.ndarray:

@@ -38,7 +38,7 @@ def make_forest(
     ``"lsystem"``, with ``tree_params``) grown at each (x, y) of ``positions`` (m);
     ``forest_kw`` go to ``Forest.from_positions`` (``variants``, ``scale_sd``)."""
     return Forest.from_positions(
-        np.asarray(positions, dtype=np.float64).reshape(-1, 2),
+        positions,
         rng,
         tree=tree_function(model),
         tree_params=dict(tree_params or {}),
