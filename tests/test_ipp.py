@@ -305,6 +305,12 @@ def test_draw_tree_positions_keeps_the_points_of_successive_sample_ipp_rounds_in
     assert np.array_equal(draw_tree_positions(30, np.random.default_rng(9)), want)
 
 
+@pytest.mark.parametrize("max_rounds", [0, -1])
+def test_draw_tree_positions_refuses_max_rounds_below_one_naming_it(max_rounds):
+    with pytest.raises(ValueError, match="max_rounds must be an integer >= 1"):
+        draw_tree_positions(3, 1, max_rounds=max_rounds)
+
+
 def test_draw_tree_positions_refuses_an_intensity_zero_on_the_window_before_drawing():
     with pytest.raises(ValueError, match="zero everywhere on the window"):
         draw_tree_positions(3, 1, lambda x, y: 0.0 * x, max_rounds=5)

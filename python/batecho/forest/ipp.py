@@ -616,6 +616,7 @@ def draw_tree_positions(
     ``rng`` is a Generator, an int seed or None, as for :func:`sample_ipp`.
     """
     integer(n_trees, "n_trees", 1)
+    rounds = integer(max_rounds, "max_rounds", 1)
     gen = generator(rng)
     lam = paper_intensity() if intensity is None else intensity
     # The bound of every round's thinning, found once (the estimate draws nothing, so each
@@ -625,7 +626,6 @@ def draw_tree_positions(
         raise ValueError("the intensity is zero everywhere on the window: no tree can be drawn")
     got: list[np.ndarray] = []
     have = 0
-    rounds = int(max_rounds)
     for done in range(1, rounds + 1):
         pts = sample_ipp(lam, window, gen, lambda_max=lam_max)
         got.append(pts)
