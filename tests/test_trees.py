@@ -365,6 +365,19 @@ def test_grow_tree_rejects_bad_parameters(kwargs):
         grow_tree(0, **kwargs)
 
 
+@pytest.mark.parametrize("kwargs", [{"droop_deg": 1e300}, {"bend_sd_deg": 1e300}])
+def test_grow_tree_refuses_a_bend_too_large_for_float64_naming_the_bend_parameters(kwargs):
+    # such a bend once overflowed as it was squared, and every branch came out NaN
+    with pytest.raises(ValueError, match="droop_deg and bend_sd_deg"):
+        grow_tree(0, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs", [{"length_sd": 1e3}, {"length_scale": 1e-323}])
+def test_grow_tree_refuses_branch_lengths_beyond_float64_naming_the_length_parameters(kwargs):
+    with pytest.raises(ValueError, match="length_scale and length_sd"):
+        grow_tree(0, **kwargs)
+
+
 @pytest.mark.parametrize("grow", [grow_tree, grow_lsystem_tree])
 def test_a_negative_seed_is_refused_naming_rng(grow):
     with pytest.raises(ValueError, match="rng must be a non-negative int seed"):

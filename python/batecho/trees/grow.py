@@ -46,6 +46,7 @@ from .._resources import BYTES_PER_LEAF, SLOW_S, check_memory, warn_if_slow
 from .._validate import finite_scalar, frozen, integer, point3, positive_scalar
 from ._shape import point_at, rodrigues, segment_of, transport
 from .branching import branching_seconds, trunk_branching
+from .lsystem_tree import MIN_SEGMENT_M
 from .objfile import Mesh
 from .reference_tree import BranchTemplate, Placed, ReferenceTree, assemble, load_reference
 from .tree import BranchLayout, Tree
@@ -220,6 +221,8 @@ def grow_tree(
     reference branch indices (``branch_choice="random"`` only), ``z`` for the lengths (b,),
     the bends (b, 2), then per branch the slides (one per unit of its reference branch).
 
+    A length factor that makes a branch shorter than 1e-9 m or longer than float64 holds, or
+    a bend too large for float64 to compute with, raises ValueError naming the parameters.
     A tree of more branches than fit :func:`batecho.memory_limit` (each counted as the
     reference's largest) raises MemoryError before it grows; one of minutes warns first
     (:class:`batecho._resources.SlowWarning`).
@@ -282,7 +285,29 @@ def grow_tree(
         choice = np.argmin(np.abs(want[:, None] - rel[None, :]), axis=1)
     z_len = gen.standard_normal(n)
     z_bend = gen.standard_normal((n, 2))
-    factors = ls * np.exp(lsd * z_len)
+    # Each branch's length and curvature (its tip's turn over its length) must be numbers
+    # float64 can bend with: refused here, naming the parameters, rather than grown as NaN.
+    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
+        factors = ls * np.exp(lsd * z_len)
+        lengths = factors * np.array([ref.branches[int(c)].arc[-1] for c in choice])
+        a, b = droop + bsd * z_bend[:, 0], bsd * z_bend[:, 1]
+        curvatures = np.sqrt(a * a + b * b) / lengths  # (as _deform computes it)
+    bad = ~(np.isfinite(lengths) & (lengths >= MIN_SEGMENT_M))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"branch {i}'s length factor length_scale * exp(length_sd * z) = {factors[i]:.3g} "
+            f"makes it {lengths[i]:.3g} m long, outside [{MIN_SEGMENT_M:g} m, float64's "
+            "largest]; use length_scale and length_sd nearer 1 and 0"
+        )
+    bad = ~np.isfinite(curvatures)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"branch {i} would turn by {math.degrees(math.hypot(a[i], b[i])):.3g} degrees over "
+            f"{lengths[i]:.3g} m, a bend too large for float64; use smaller droop_deg and "
+            "bend_sd_deg"
+        )
     placed = []
     bends = np.zeros((n, 3))
     for i in range(n):
