@@ -552,6 +552,13 @@ def test_trunk_branching_origins_lie_on_the_trunk_segment(seed):
     assert np.all((t >= 0) & (t <= 1)) and np.abs(off_axis).max() < 1e-9
 
 
+def test_trunk_branching_with_a_contraction_whose_powers_overflow_fills_the_trunk():
+    # contraction**k for the lowest node's k nodes above it is beyond float64 (10**320)
+    b = trunk_branching(np.random.default_rng(0), n_branches=320, contraction=10.0)
+    assert len(b) == 320
+    assert np.all(np.diff(b.heights) >= 0) and 2.0 <= b.heights.min() <= b.heights.max() < 7.0
+
+
 def test_trunk_branching_directions_are_unit_vectors():
     b = trunk_branching(np.random.default_rng(3), n_branches=12)
     np.testing.assert_allclose(np.linalg.norm(b.directions, axis=1), 1.0, atol=1e-12)

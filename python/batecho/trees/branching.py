@@ -172,7 +172,13 @@ def trunk_branching(
         if left <= 0:
             return "".join(buds) + f"F({f(height - h)})"
         k = -(-left // m) + 1  # internodes still to grow, the top one included
-        frac = 1.0 / k if abs(1.0 - r) < 1e-12 else (1.0 - r) / (1.0 - r**k)
+        if abs(1.0 - r) < 1e-12:
+            frac = 1.0 / k
+        else:
+            try:
+                frac = (1.0 - r) / (1.0 - r**k)
+            except OverflowError:  # r > 1 and r**k beyond float64: (r - 1) / r**k is ~0
+                frac = 0.0
         frac = min(frac * (1.0 + ijit * gen.uniform(-1.0, 1.0)), 0.95)
         internode = (height - h) * frac
         turn = div + djit * gen.uniform(-1.0, 1.0)
