@@ -518,6 +518,14 @@ def test_load_tree_refuses_a_file_without_leaf_faces_naming_the_file_and_pattern
     assert str(list(DEFAULT_LEAF_PATTERNS)) in str(err.value)
 
 
+@pytest.mark.parametrize("trunk_pattern", [None, 3, b"trunk"])
+def test_load_tree_refuses_a_trunk_pattern_that_is_not_a_str_naming_it(tmp_path, trunk_pattern):
+    path = tmp_path / "leaf.obj"
+    path.write_text("g leaf\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(TypeError, match="trunk_pattern must be a str"):
+        load_tree(path, trunk_pattern=trunk_pattern)
+
+
 def test_the_trees_guide_states_the_default_leaf_patterns_and_refusal_of_a_leafless_file():
     guide = " ".join((ROOT / "docs" / "guide" / "trees.md").read_text().split())
     named = ", ".join(f'"{p}"' for p in DEFAULT_LEAF_PATTERNS[:-1])

@@ -37,6 +37,8 @@ def load_tree(
     its wood does not echo or block (docs/model.md §9). An :class:`ObjWarning` says so when the
     file has bark; give the skeleton, if you know it, with
     ``tree.with_branches(batecho.Branches(starts, ends, radii))``."""
+    if not isinstance(trunk_pattern, str):
+        raise TypeError(f"trunk_pattern must be a str, got {type(trunk_pattern).__name__}")
     mesh = load_obj(
         path, leaf_patterns=leaf_patterns, up=up, per=per, scale=scale, transform=transform
     )
