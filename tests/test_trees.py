@@ -526,6 +526,21 @@ def test_load_tree_refuses_a_trunk_pattern_that_is_not_a_str_naming_it(tmp_path,
         load_tree(path, trunk_pattern=trunk_pattern)
 
 
+def _bare_tree(leaves, bark_vertices, bark_faces):
+    n = len(leaves)
+    return Tree(leaves, bark_vertices, bark_faces, None, (), np.full(n, -1), np.full(n, -1))
+
+
+def test_tree_refuses_bark_vertices_that_are_not_finite(lsys_tree):
+    with pytest.raises(ValueError, match="bark_vertices must be finite"):
+        _bare_tree(lsys_tree.leaves, np.full((3, 3), np.nan), [[0, 1, 2]])
+
+
+def test_tree_refuses_bark_faces_that_are_not_integers(lsys_tree):
+    with pytest.raises(TypeError, match="bark_faces must hold integer indices"):
+        _bare_tree(lsys_tree.leaves, np.eye(3), [[0.5, 1.2, 2.9]])
+
+
 def test_the_trees_guide_states_the_default_leaf_patterns_and_refusal_of_a_leafless_file():
     guide = " ".join((ROOT / "docs" / "guide" / "trees.md").read_text().split())
     named = ", ".join(f'"{p}"' for p in DEFAULT_LEAF_PATTERNS[:-1])

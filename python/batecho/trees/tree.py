@@ -21,7 +21,7 @@ from .._validate import finite_scalar, frozen, point3, positive_scalar
 from ._shape import bounds
 from .branches import Branches
 from .leaves import Leaves
-from .objfile import Mesh, write_obj
+from .objfile import Mesh, _faces, _vertices, write_obj
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,10 +119,8 @@ class Tree(ReadOnlyOnLoading):
         if not isinstance(self.leaves, Leaves):
             raise TypeError(f"leaves must be Leaves, got {type(self.leaves).__name__}")
         n = len(self.leaves)
-        bv = np.asarray(self.bark_vertices, dtype=np.float64).reshape(-1, 3)
-        bf = np.asarray(self.bark_faces, dtype=np.int64).reshape(-1, 3)
-        if len(bf) and (bf.min() < 0 or bf.max() >= len(bv)):
-            raise ValueError("bark_faces index outside bark_vertices")
+        bv = _vertices(self.bark_vertices, "bark_vertices")
+        bf = _faces(self.bark_faces, len(bv), "bark_faces")
         names = tuple(str(s) for s in self.bark_group_names) or ("bark",)
         bg = np.zeros(len(bf), np.int64) if self.bark_groups is None else self.bark_groups
         bg = np.asarray(bg, dtype=np.int64).reshape(-1)
