@@ -64,19 +64,6 @@ GRAVITY = 9.81
 FLY_METHODS = ("rust", "python", "scipy")
 
 
-def _time_grid(n: int, h: float, T: float, limit: float) -> np.ndarray:
-    """Times ``k h`` (k = 0..n) capped at ``T``, with no step over ``limit`` (the motor time
-    constant, the integrators' limit). Rounding can make a step of ``k h`` an ulp longer than
-    ``h``; if that takes it over ``limit`` (``h`` at the limit), the step is ``h`` rounded
-    down to a float whose multiples up to ``n h`` are exact."""
-    times = np.minimum(np.arange(n + 1) * h, T)
-    if np.diff(times).max() <= limit:
-        return times
-    _, e = math.frexp(n * h)  # n h < 2**e, so multiples of 2**(e - 52) are exact up to it
-    q = 2.0 ** (e - 52)
-    return np.minimum(np.arange(n + 1) * (math.floor(h / q) * q), T)
-
-
 @dataclass(frozen=True, eq=False)
 class Gusts:
     """Wind as process noise: each world axis an Ornstein-Uhlenbeck velocity (m/s) about
@@ -424,7 +411,7 @@ class Quadrotor(MadeAgainOnLoading):
                 stacklevel=2,
             )
         n = max(1, math.ceil(steps - 1e-9))
-        times = _time_grid(n, h, T, self.motor_time_constant)
+        times = np.minimum(np.arange(n + 1) * h, T)
         state = self.initial_state(trajectory) if initial_state is None else initial_state
         if not isinstance(state, QuadState):
             raise TypeError("initial_state must be a QuadState")

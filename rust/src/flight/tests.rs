@@ -115,6 +115,29 @@ fn a_hovering_drone_holding_its_place_stays_within_a_micrometre() {
 }
 
 #[test]
+fn a_grid_of_steps_at_the_motor_time_constant_flies_despite_rounding() {
+    let a = crazyflie();
+    let y0 = hovering(&a, [0.0, 0.0, 1.0]);
+    // k * 0.015 in f64: some steps come out an ulp of the time longer than 0.015
+    let n = 20_001;
+    let times: Vec<f64> = (0..n).map(|k| k as f64 * a.motor_time_constant).collect();
+    assert!(times
+        .windows(2)
+        .any(|w| w[1] - w[0] > a.motor_time_constant));
+    let refs = vec![
+        Reference {
+            position: [0.0, 0.0, 1.0],
+            ..Default::default()
+        };
+        n
+    ];
+    assert!(fly(&a, &y0, &refs, &vec![[0.0; 3]; n], &times).is_ok());
+    // a step truly longer than the constant is still refused
+    let long = [0.0, a.motor_time_constant * (1.0 + 1e-9)];
+    assert!(fly(&a, &y0, &refs[..2], &[[0.0; 3]; 2], &long).is_err());
+}
+
+#[test]
 fn a_velocity_command_is_reached_and_the_rotation_stays_orthonormal() {
     let a = crazyflie();
     let mut swarm = Swarm::new(a.clone(), vec![hovering(&a, [0.0; 3])]).unwrap();
