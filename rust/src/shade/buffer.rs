@@ -1,13 +1,15 @@
 //! The light buffer (E. A. Haines, D. P. Greenberg, "The light buffer: a shadow-testing
 //! accelerator", IEEE CG&A 6(9), 1986): the directions round the sonar on the six faces of a
 //! cube, each face's targets binned in a grid of cells over their box in the face's gnomonic
-//! coordinates. A ball bounding an occluder maps to the cells its directions can reach, so a
-//! ray is tested only against the occluders whose balls reach its cell.
+//! coordinates. An occluder maps to the cells its directions can reach (a leaf disk by the box
+//! of its projection, a ball by the box of its), so a ray is tested only against the occluders
+//! that reach its cell.
 //!
-//! The binning is conservative, never exact: a target's cell and a ball's cells come from the
-//! same monotone function of the coordinates, and a ball's slopes are widened past their
-//! rounding. Every candidate then goes through the exact test.
+//! The binning is conservative, never exact: a target's cell and an occluder's cells come from
+//! the same monotone function of the coordinates, and an occluder's slopes are widened past
+//! their rounding. Every candidate then goes through the exact test.
 use crate::math::vec3::{dot, V3};
+use multiversion::multiversion;
 use rayon::prelude::*;
 
 /// A ball this close to the sonar (its distance at most this many radii) can reach any face
@@ -67,6 +69,77 @@ fn slopes(vb: f64, z: f64, rho: f64) -> (f64, f64) {
     let root = rho * (vb * vb + den).sqrt();
     let inv = 1.0 / den;
     let (lo, hi) = ((vb * z - root) * inv, (vb * z + root) * inv);
+    (lo - WIDEN * (1.0 + lo.abs()), hi + WIDEN * (1.0 + hi.abs()))
+}
+
+/// Disks per call of [`disk_boxes`].
+pub(super) const DISKS: usize = 8;
+
+/// Each disk's face (that of its centre) and its slope ranges there, and whether they stay
+/// inside that face with the disk far enough from the sonar to bin.
+struct DiskBoxes {
+    face: [u8; DISKS],
+    u: [(f64, f64); DISKS],
+    w: [(f64, f64); DISKS],
+    inside: [bool; DISKS],
+}
+
+/// The boxes of [`DISKS`] disks (centres `v` relative to the sonar and unit normals `n`, by
+/// coordinate; radii `a`), branch-free so that they run lane by lane. The face is chosen as
+/// [`face_of`] chooses it, and a disk's near test is a ball's ([`Buffer::ball_cells`]).
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn disk_boxes(v: &[[f64; DISKS]; 3], n: &[[f64; DISKS]; 3], a: &[f64; DISKS]) -> DiskBoxes {
+    let mut out = DiskBoxes {
+        face: [0; DISKS],
+        u: [(0.0, 0.0); DISKS],
+        w: [(0.0, 0.0); DISKS],
+        inside: [false; DISKS],
+    };
+    for k in 0..DISKS {
+        let (x, y, z) = (v[0][k], v[1][k], v[2][k]);
+        let dist = (x * x + y * y + z * z).sqrt();
+        let near_ok = dist > NEAR_BALLS * a[k];
+        let r = a[k] * (1.0 + WIDEN);
+        // face_of, by selects: the axis of the largest coordinate (the first of equals)
+        let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
+        let is_x = ax >= ay && ax >= az;
+        let is_y = !is_x && ay >= az;
+        let (va, vb, vc, na, nb, nc, axis) = if is_x {
+            (x, y, z, n[0][k], n[1][k], n[2][k], 0u8)
+        } else if is_y {
+            (y, z, x, n[1][k], n[2][k], n[0][k], 1)
+        } else {
+            (z, x, y, n[2][k], n[0][k], n[1][k], 2)
+        };
+        let zf = va.abs();
+        let na = if va < 0.0 { -na } else { na };
+        let u = disk_slopes(vb, zf, nb, na, r);
+        let w = disk_slopes(vc, zf, nc, na, r);
+        let inside = |s: (f64, f64)| s.0 > -1.0 && s.1 < 1.0;
+        out.face[k] = 2 * axis + u8::from(va < 0.0);
+        out.u[k] = u;
+        out.w[k] = w;
+        out.inside[k] = near_ok & (zf > r) & inside(u) & inside(w);
+    }
+    out
+}
+
+/// The range of slopes `x_b / x_a` over a disk of centre `(vb, z)` (`z > a`), normal
+/// components `(nb, na)` and radius `a`, in the `(b, a)` plane, widened past its rounding:
+/// the slopes `s` whose plane `x_b = s x_a` meets the disk, `|vb - s z| <= a |m - (m . n) n|`
+/// with `m = (-s, 1)` in `(a, b)`, which is `A s^2 - 2 P s + C <= 0`.
+#[inline(always)]
+fn disk_slopes(vb: f64, z: f64, nb: f64, na: f64, a: f64) -> (f64, f64) {
+    let a2 = a * a;
+    let big_a = z * z - a2 * (1.0 - na * na);
+    let p = z * vb + a2 * na * nb;
+    let c = vb * vb - a2 * (1.0 - nb * nb);
+    // (the discriminant raised by far more than its rounding, which is largest where the
+    // interval is thin)
+    let scale = (z * vb.abs() + a2) * (z * vb.abs() + a2) + big_a * (vb * vb + a2);
+    let root = (p * p - big_a * c + 1e-12 * scale).max(0.0).sqrt();
+    let inv = 1.0 / big_a;
+    let (lo, hi) = ((p - root) * inv, (p + root) * inv);
     (lo - WIDEN * (1.0 + lo.abs()), hi + WIDEN * (1.0 + hi.abs()))
 }
 
@@ -154,13 +227,6 @@ impl Buffer {
         fc.first + j * fc.nu + i
     }
 
-    /// The cell of the direction `w` (`n_cells` for a face that holds no target), to order
-    /// occluders by the cells they reach.
-    #[inline(always)]
-    pub(super) fn cell_of(&self, w: V3) -> usize {
-        self.cell_at(face_of(w))
-    }
-
     /// The number of cells.
     pub(super) fn n_cells(&self) -> usize {
         self.n_cells
@@ -212,6 +278,33 @@ impl Buffer {
             }
         }
         true
+    }
+
+    /// Calls `visit(k, c0, c1)` for runs of cells `c0..c1` (one row of one face at a time)
+    /// that hold every target whose ray can cross disk `k` of [`DISKS`] (centres `v` relative
+    /// to the sonar and unit normals `n`, by coordinate; radii `a`): the cells of the disk's
+    /// box on the face of its centre, or, for the rare disk whose box leaves that face or that
+    /// lies too near the sonar, those of its ball ([`Buffer::ball_cells`]; every cell if that
+    /// is too near to bin). Disk by disk, in order.
+    #[inline(always)]
+    pub(super) fn disks_cells(
+        &self,
+        v: &[[f64; DISKS]; 3],
+        n: &[[f64; DISKS]; 3],
+        a: &[f64; DISKS],
+        mut visit: impl FnMut(usize, usize, usize),
+    ) {
+        let b = disk_boxes(v, n, a);
+        for k in 0..DISKS {
+            if b.inside[k] {
+                self.visit_face(b.face[k] as usize, b.u[k], b.w[k], &mut |c0, c1| {
+                    visit(k, c0, c1)
+                });
+            } else if !self.ball_cells([v[0][k], v[1][k], v[2][k]], a[k], |c0, c1| visit(k, c0, c1))
+            {
+                visit(k, 0, self.n_cells);
+            }
+        }
     }
 
     /// The ball's slope ranges on face `f`, if it lies wholly in front of the face's plane.
@@ -267,6 +360,72 @@ impl Buffer {
 mod tests {
     use super::*;
     use crate::test_util::uniforms;
+
+    /// Disks facing the sonar, edge-on to it and at random, near and far, on every face and
+    /// across faces' edges.
+    #[test]
+    fn a_disk_reaches_the_cells_of_every_ray_that_crosses_it() {
+        use super::super::crossing::Disk;
+        let mut u = uniforms(12);
+        let mut dir = || {
+            let (z, ph) = (2.0 * u() - 1.0, 2.0 * std::f64::consts::PI * u());
+            let q = (1.0 - z * z).sqrt();
+            [q * ph.cos(), q * ph.sin(), z]
+        };
+        let targets: Vec<V3> = (0..4000).map(|_| dir().map(|x| 3.0 * x)).collect();
+        let mut disks = Vec::new();
+        for k in 0..600 {
+            let c = dir().map(|x| (0.3 + 2.0 * (k % 7) as f64 / 7.0) * x);
+            let dist = dot(c, c).sqrt();
+            let n = match k % 3 {
+                0 => c.map(|x| x / dist),
+                1 => {
+                    let e = dir();
+                    let p = [0, 1, 2].map(|d| e[d] - dot(e, c) / (dist * dist) * c[d]);
+                    let l = dot(p, p).sqrt();
+                    p.map(|x| x / l)
+                }
+                _ => dir(),
+            };
+            let a = dist / (4.6 + 20.0 * (k % 5) as f64);
+            disks.push((c, n, a));
+        }
+        for h in [0.01, 0.05, 0.3] {
+            let buf = Buffer::new(&targets, h);
+            let mut cell_of = vec![0usize; targets.len()];
+            for c in 0..buf.n_cells() {
+                for k in buf.start[c]..buf.start[c + 1] {
+                    cell_of[buf.order[k as usize] as usize] = c;
+                }
+            }
+            let mut crossed = 0;
+            for batch in disks.chunks(DISKS) {
+                let mut v = [[0.0; DISKS]; 3];
+                let mut n = [[0.0; DISKS]; 3];
+                let mut a = [0.0; DISKS];
+                for (k, &(c, nn, r)) in batch.iter().enumerate() {
+                    for d in 0..3 {
+                        (v[d][k], n[d][k]) = (c[d], nn[d]);
+                    }
+                    a[k] = r;
+                }
+                let mut reached = vec![vec![false; buf.n_cells()]; DISKS];
+                buf.disks_cells(&v, &n, &a, |k, c0, c1| {
+                    reached[k][c0..c1].iter_mut().for_each(|r| *r = true)
+                });
+                for (k, &(c, nn, r)) in batch.iter().enumerate() {
+                    let disk = Disk::new(c, nn, r);
+                    for (i, t) in targets.iter().enumerate() {
+                        if disk.crossed_by(*t) {
+                            crossed += 1;
+                            assert!(reached[k][cell_of[i]], "target {i} missed at h {h}");
+                        }
+                    }
+                }
+            }
+            assert!(crossed > 1000, "the disks are crossed ({crossed})");
+        }
+    }
 
     #[test]
     fn a_ball_reaches_the_cells_of_every_direction_it_holds() {

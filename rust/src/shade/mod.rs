@@ -4,9 +4,11 @@
 //! The rays of one pose share their origin, so they are cast through a light buffer
 //! ([`buffer`]) around the sonar: the occluders that can reach the rays (leaves found by the
 //! BVH, branch segments by their bounding balls; [`occluders`]) are mapped to the cells of the
-//! target directions their bounding balls cover, and each target in those cells is tested
-//! exactly ([`crossing`]). Occluders go in parallel; a target's count is an integer sum, so the
-//! result does not depend on the order or the number of threads.
+//! target directions they cover (a leaf by its disk's box, a segment by balls along it), and
+//! each target in those cells is tested exactly ([`crossing`]). Occluders go in parallel, in
+//! the BVH's order (near in space, so near in direction: the targets they reach are in cache);
+//! a target's count is an integer sum, so the result does not depend on the order or the
+//! number of threads.
 
 pub mod buffer;
 pub mod crossing;
@@ -90,7 +92,6 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
     let crossings: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
     let blocked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
     let all = buf.n_cells();
-    let leaves = by_cell(scene, origin, &buf, &leaves);
     leaves
         .par_chunks(OCCLUDER_CHUNK)
         .for_each(|chunk| leaf_chunk(scene, origin, &buf, &rays, chunk, &crossings));
@@ -157,32 +158,6 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
             crossings: crossings[pos].load(Ordering::Relaxed),
             blocked: blocked[pos].load(Ordering::Relaxed),
         };
-    }
-    out
-}
-
-/// The leaves `leaves` (stored indices) ordered by the cell of their centres' directions (a
-/// counting sort, stable), so that the occluders of one task reach the same rows of cells and
-/// find their targets in cache.
-fn by_cell(scene: &Scene, origin: V3, buf: &Buffer, leaves: &[u32]) -> Vec<u32> {
-    let cells: Vec<u32> = leaves
-        .par_iter()
-        .map(|&j| {
-            let c = scene.centers.get(j as usize);
-            buf.cell_of([c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]]) as u32
-        })
-        .collect();
-    let mut start = vec![0u32; buf.n_cells() + 2];
-    for &c in &cells {
-        start[c as usize + 1] += 1;
-    }
-    for c in 0..start.len() - 1 {
-        start[c + 1] += start[c];
-    }
-    let mut out = vec![0u32; leaves.len()];
-    for (&j, &c) in leaves.iter().zip(&cells) {
-        out[start[c as usize] as usize] = j;
-        start[c as usize] += 1;
     }
     out
 }

@@ -4,7 +4,7 @@
 //! lane, in AVX2 where the CPU has it and in portable code otherwise. The lanes perform the
 //! same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so they decide
 //! every ray alike.
-use super::buffer::Buffer;
+use super::buffer::{Buffer, DISKS};
 use super::crossing::Disk;
 use crate::math::prefetch;
 use crate::math::vec3::{dot, V3};
@@ -61,36 +61,56 @@ pub(super) fn leaf_chunk(
 ) {
     let mut disks: Vec<Occluder> = Vec::with_capacity(chunk.len());
     let mut runs: Vec<(u32, u32)> = Vec::with_capacity(4 * chunk.len());
-    for (k, &j) in chunk.iter().enumerate() {
-        // (the leaves come in the buffer's order, scattered in storage: their data is asked
-        // for a few leaves ahead)
-        if let Some(&ahead) = chunk.get(k + GATHER_AHEAD) {
-            let ahead = ahead as usize;
-            let (c, nn) = (&scene.centers, &scene.normals);
-            for arr in [&c.x, &c.y, &c.z, &nn.x, &nn.y, &nn.z, &scene.radii] {
-                prefetch::line(arr, ahead);
+    for (b, block) in chunk.chunks(DISKS).enumerate() {
+        let mut v = [[0.0f64; DISKS]; 3];
+        let mut nrm = [[0.0f64; DISKS]; 3];
+        let mut a = [0.0f64; DISKS];
+        for (k, &j) in block.iter().enumerate() {
+            // (the leaves come in the buffer's order, scattered in storage: their data is
+            // asked for a few leaves ahead)
+            if let Some(&ahead) = chunk.get(b * DISKS + k + GATHER_AHEAD) {
+                let ahead = ahead as usize;
+                let (c, nn) = (&scene.centers, &scene.normals);
+                for arr in [&c.x, &c.y, &c.z, &nn.x, &nn.y, &nn.z, &scene.radii] {
+                    prefetch::line(arr, ahead);
+                }
             }
+            let c = scene.centers.get(j as usize);
+            let vk = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
+            (v[0][k], v[1][k], v[2][k]) = (vk[0], vk[1], vk[2]);
+            a[k] = scene.radii[j as usize];
+            let nk = scene.normals.get(j as usize);
+            (nrm[0][k], nrm[1][k], nrm[2][k]) = (nk[0], nk[1], nk[2]);
+            disks.push(Occluder {
+                disk: Disk::new(vk, nk, a[k]),
+                // (no crossing of a ray shorter than the disk's nearest distance)
+                near: (dot(vk, vk).sqrt() - a[k]) * (1.0 - 1e-12),
+                leaf: j,
+                runs_end: 0,
+            });
         }
-        let c = scene.centers.get(j as usize);
-        let v = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
-        let a = scene.radii[j as usize];
-        let mut push = |c0: usize, c1: usize| {
+        let live = block.len();
+        let mut ends = [runs.len() as u32; DISKS];
+        // (a ball too near the sonar to bin visits every cell: every target is tested)
+        buf.disks_cells(&v, &nrm, &a, |k, c0, c1| {
             let (lo, hi) = (buf.start[c0], buf.start[c1]);
-            if lo < hi {
+            if k < live && lo < hi {
                 runs.push((lo, hi));
+                ends[k] = runs.len() as u32;
             }
-        };
-        // (a ball too near the sonar to bin visits nothing: every target is tested)
-        if !buf.ball_cells(v, a, &mut push) {
-            push(0, buf.n_cells());
-        }
-        disks.push(Occluder {
-            disk: Disk::new(v, scene.normals.get(j as usize), a),
-            // (no crossing of a ray shorter than the disk's nearest distance)
-            near: (dot(v, v).sqrt() - a) * (1.0 - 1e-12),
-            leaf: j,
-            runs_end: runs.len() as u32,
         });
+        let first = disks.len() - live;
+        let mut end = 0;
+        for (k, d) in disks[first..].iter_mut().enumerate() {
+            end = end.max(ends[k]);
+            d.runs_end = end;
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU has AVX-512F.
+        unsafe { test_chunk_avx512(&disks, &runs, rays, crossings) };
+        return;
     }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
@@ -247,6 +267,74 @@ unsafe fn test_chunk_avx2(
     }
 }
 
+/// [`test_chunk`] in AVX-512: one register of eight lanes per step, each operation the IEEE
+/// f64 operation of the portable code (no FMA), and the comparisons' NaN cases alike.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn test_chunk_avx512(
+    disks: &[Occluder],
+    runs: &[(u32, u32)],
+    rays: &Rays,
+    crossings: &[AtomicU32],
+) {
+    use std::arch::x86_64::*;
+    let mut first = 0usize;
+    for o in disks {
+        let Disk { v, n, nv, a2 } = o.disk;
+        let (n0, n1, n2) = (
+            _mm512_set1_pd(n[0]),
+            _mm512_set1_pd(n[1]),
+            _mm512_set1_pd(n[2]),
+        );
+        let (v0, v1, v2) = (
+            _mm512_set1_pd(v[0]),
+            _mm512_set1_pd(v[1]),
+            _mm512_set1_pd(v[2]),
+        );
+        let (nv, a2, near) = (
+            _mm512_set1_pd(nv),
+            _mm512_set1_pd(a2),
+            _mm512_set1_pd(o.near),
+        );
+        let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
+        for &(lo, hi) in &runs[first..o.runs_end as usize] {
+            assert!(hi as usize + LANES <= rays.x.len());
+            let (mut at, hi) = (lo as usize, hi as usize);
+            while at < hi {
+                // SAFETY: `at + LANES <= len` for every step: the rays are padded by LANES.
+                let (x, y, z, range) = unsafe {
+                    (
+                        _mm512_loadu_pd(rays.x.as_ptr().add(at)),
+                        _mm512_loadu_pd(rays.y.as_ptr().add(at)),
+                        _mm512_loadu_pd(rays.z.as_ptr().add(at)),
+                        _mm512_loadu_pd(rays.range.as_ptr().add(at)),
+                    )
+                };
+                let d = _mm512_add_pd(
+                    _mm512_add_pd(_mm512_mul_pd(n0, x), _mm512_mul_pd(n1, y)),
+                    _mm512_mul_pd(n2, z),
+                );
+                let t = _mm512_div_pd(nv, d);
+                let q0 = _mm512_sub_pd(_mm512_mul_pd(t, x), v0);
+                let q1 = _mm512_sub_pd(_mm512_mul_pd(t, y), v1);
+                let q2 = _mm512_sub_pd(_mm512_mul_pd(t, z), v2);
+                let qq = _mm512_add_pd(
+                    _mm512_add_pd(_mm512_mul_pd(q0, q0), _mm512_mul_pd(q1, q1)),
+                    _mm512_mul_pd(q2, q2),
+                );
+                let m = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(range, near);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_NEQ_UQ>(m, d, zero);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, t, zero);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(m, t, one);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(m, qq, a2);
+                count_hits(u32::from(m), at, hi, o.leaf, rays, crossings);
+                at += LANES;
+            }
+        }
+        first = o.runs_end as usize;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -354,6 +442,19 @@ mod tests {
         }
         assert!(want.iter().sum::<u32>() > 100, "the cases cross disks");
         assert_eq!(got, want);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx512_lanes_count_what_the_portable_lanes_count() {
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            return;
+        }
+        let (disks, runs, rays) = hard_cases();
+        let portable = counts(|c| test_chunk(&disks, &runs, &rays, c));
+        // SAFETY: the CPU has AVX-512F.
+        let avx512 = counts(|c| unsafe { test_chunk_avx512(&disks, &runs, &rays, c) });
+        assert_eq!(avx512, portable);
     }
 
     #[cfg(target_arch = "x86_64")]
