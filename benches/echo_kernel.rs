@@ -7,6 +7,8 @@
 //! - a whole pulse (`simulate`) heard by one ear against two ears (and monostatic), exact and
 //!   fast (tol 1e-6), at 1e4 and 1e5 leaves in the lobe; and the part the ears share (the
 //!   lobe query and the pass that makes every ear's terms) alone;
+//! - shading's cast alone (every leaf's ray from the sonar, against every leaf disk) at 1e4 and
+//!   1e5 leaves in the box;
 //! - the clearance (nearest leaf disk) of 1000 points in the 1e6-leaf canopy.
 
 use batecho::echo::{heard_terms, leaf_term, sum_terms, LeafTerm};
@@ -17,6 +19,7 @@ use batecho::lobe::{candidates, candidates_heard, members, place_receivers, Sear
 use batecho::physics::beam::GaussianBeam;
 use batecho::physics::pose::Pose;
 use batecho::scene::Scene;
+use batecho::shade::{cast, Target};
 use batecho::simulate::{simulate, Method};
 use batecho::sonar::LobeRule;
 use batecho::sonar::{Receiver, Sonar, SonarParams};
@@ -277,6 +280,28 @@ fn bench_ears(c: &mut Criterion) {
 
 /// The clearance of 1000 points in the 1e6-leaf canopy of [`forest`] (BVH walk), beside
 /// the pulse it guards (`bench_lobe`'s lobe query is one part of a pulse).
+/// Shading's cast alone: the ray of every leaf of the box (all in the lobe) from the sonar,
+/// through the light buffer, against every leaf disk (`batecho.Shading()` casts these rays
+/// for a pulse; `benches/bench_shading.py` times the whole shaded pulse against the unshaded).
+fn bench_cast(c: &mut Criterion) {
+    let mut g = c.benchmark_group("shade_cast");
+    g.sample_size(10);
+    for &n in &[10_000usize, 100_000] {
+        let scene = box_scene(n);
+        let targets: Vec<Target> = (0..n)
+            .map(|i| Target::Leaf {
+                point: scene.centers.get(i),
+                leaf: i as u32,
+            })
+            .collect();
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_function(BenchmarkId::new("every_leaf", n), |b| {
+            b.iter(|| black_box(cast(&scene, [0.0; 3], &targets, true).len()))
+        });
+    }
+    g.finish();
+}
+
 fn bench_clearance(c: &mut Criterion) {
     let scene = forest(1_000_000);
     let mut rng = Rng(3);
@@ -305,6 +330,7 @@ criterion_group!(
     bench_lobe,
     bench_pulse,
     bench_ears,
+    bench_cast,
     bench_clearance
 );
 criterion_main!(benches);
