@@ -21,19 +21,3 @@ pub(crate) fn ahead<T, const N: usize>(v: &[T], at: usize) {
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (v, at);
 }
-
-/// Ask for the cache line of `v[at]`, for a gather in an order the hardware cannot foresee
-/// (nothing past `v`'s end).
-#[inline(always)]
-pub(crate) fn line<T>(v: &[T], at: usize) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        if let Some(x) = v.get(at) {
-            // SAFETY: `x` lies inside `v`; a prefetch only hints.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>()) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (v, at);
-}

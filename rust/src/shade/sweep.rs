@@ -6,7 +6,6 @@
 //! every ray alike.
 use super::buffer::{Buffer, DISKS};
 use super::crossing::Disk;
-use crate::math::prefetch;
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -50,7 +49,7 @@ pub(super) const LANES: usize = 8;
 
 /// Count, for every target, the disks of the leaves `chunk` (stored indices) that its ray
 /// crosses, into `crossings` (by position). The chunk's disks and their runs of positions come
-/// first (independent scalar work that pipelines), then the tests.
+/// first (independent scalar work that pipelines), then the tests, then the count.
 pub(super) fn leaf_chunk(
     scene: &Scene,
     origin: V3,
@@ -59,22 +58,30 @@ pub(super) fn leaf_chunk(
     chunk: &[u32],
     crossings: &[AtomicU32],
 ) {
+    let (disks, runs) = occluders_of(scene, origin, buf, chunk);
+    let steps: usize = runs
+        .iter()
+        .map(|&(lo, hi)| (hi - lo).div_ceil(LANES as u32) as usize)
+        .sum();
+    let mut hits = Hits::with_steps(steps);
+    test_chunk_fastest(&disks, &runs, rays, &mut hits);
+    hits.count(rays, crossings);
+}
+
+/// The disks of the leaves `chunk` (stored indices) and their runs of positions in the buffer.
+pub(super) fn occluders_of(
+    scene: &Scene,
+    origin: V3,
+    buf: &Buffer,
+    chunk: &[u32],
+) -> (Vec<Occluder>, Vec<(u32, u32)>) {
     let mut disks: Vec<Occluder> = Vec::with_capacity(chunk.len());
     let mut runs: Vec<(u32, u32)> = Vec::with_capacity(4 * chunk.len());
-    for (b, block) in chunk.chunks(DISKS).enumerate() {
+    for block in chunk.chunks(DISKS) {
         let mut v = [[0.0f64; DISKS]; 3];
         let mut nrm = [[0.0f64; DISKS]; 3];
         let mut a = [0.0f64; DISKS];
         for (k, &j) in block.iter().enumerate() {
-            // (the leaves come in the buffer's order, scattered in storage: their data is
-            // asked for a few leaves ahead)
-            if let Some(&ahead) = chunk.get(b * DISKS + k + GATHER_AHEAD) {
-                let ahead = ahead as usize;
-                let (c, nn) = (&scene.centers, &scene.normals);
-                for arr in [&c.x, &c.y, &c.z, &nn.x, &nn.y, &nn.z, &scene.radii] {
-                    prefetch::line(arr, ahead);
-                }
-            }
             let c = scene.centers.get(j as usize);
             let vk = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
             (v[0][k], v[1][k], v[2][k]) = (vk[0], vk[1], vk[2]);
@@ -106,53 +113,96 @@ pub(super) fn leaf_chunk(
             d.runs_end = end;
         }
     }
+    (disks, runs)
+}
+
+/// [`test_chunk`] in the widest lanes the CPU has.
+pub(super) fn test_chunk_fastest(
+    disks: &[Occluder],
+    runs: &[(u32, u32)],
+    rays: &Rays,
+    hits: &mut Hits,
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx512f") {
         // SAFETY: the CPU has AVX-512F.
-        unsafe { test_chunk_avx512(&disks, &runs, rays, crossings) };
+        unsafe { test_chunk_avx512(disks, runs, rays, hits) };
         return;
     }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
-        unsafe { test_chunk_avx2(&disks, &runs, rays, crossings) };
+        unsafe { test_chunk_avx2(disks, runs, rays, hits) };
         return;
     }
-    test_chunk(&disks, &runs, rays, crossings);
+    test_chunk(disks, runs, rays, hits);
 }
 
-/// How many leaves ahead [`leaf_chunk`] asks for a leaf's data.
-const GATHER_AHEAD: usize = 12;
+/// The steps of a chunk's tests that hit: each step's first position, its lanes that hit (the
+/// padding past its run's end cleared) and the occluding leaf. The tests append every step
+/// and keep only those with a hit, without a branch, so that the divisions of successive
+/// steps overlap; the hits are counted after.
+pub(super) struct Hits {
+    at: Vec<u32>,
+    own: Vec<u32>,
+    bits: Vec<u8>,
+    len: usize,
+}
+
+impl Hits {
+    /// Room for `steps` steps (and the one slot each append writes past the kept ones).
+    pub(super) fn with_steps(steps: usize) -> Hits {
+        Hits {
+            at: vec![0; steps + 1],
+            own: vec![0; steps + 1],
+            bits: vec![0; steps + 1],
+            len: 0,
+        }
+    }
+
+    /// Append the step at `at` of a run ending at `hi`, kept when a lane hits.
+    #[inline(always)]
+    fn push(&mut self, mut bits: u32, at: usize, hi: usize, own: u32) {
+        let live = hi - at;
+        if live < LANES {
+            bits &= (1u32 << live) - 1;
+        }
+        let k = self.len;
+        self.at[k] = at as u32;
+        self.own[k] = own;
+        self.bits[k] = bits as u8;
+        self.len += usize::from(bits != 0);
+    }
+
+    /// Count each kept hit into `crossings` (by position), unless the ray is the occluding
+    /// leaf's own.
+    pub(super) fn count(&self, rays: &Rays, crossings: &[AtomicU32]) {
+        for k in 0..self.len {
+            let (at, own) = (self.at[k] as usize, self.own[k]);
+            let mut bits = self.bits[k] as u32;
+            while bits != 0 {
+                let pos = at + bits.trailing_zeros() as usize;
+                if rays.leaf[pos] != own {
+                    crossings[pos].fetch_add(1, Ordering::Relaxed);
+                }
+                bits &= bits - 1;
+            }
+        }
+    }
+}
 
 /// An occluding leaf as the tests take it: its disk, the range below which no ray can cross
 /// it, its stored index, and the end of its runs in the chunk's list.
-struct Occluder {
+pub(super) struct Occluder {
     disk: Disk,
     near: f64,
     leaf: u32,
     runs_end: u32,
 }
 
-/// Count a hit of the disk of leaf `own` by the lanes `bits` of the step at `at` (lanes at or
-/// past `hi` are padding), unless the ray is that leaf's own.
-#[inline(always)]
-fn count_hits(mut bits: u32, at: usize, hi: usize, own: u32, rays: &Rays, crossings: &[AtomicU32]) {
-    let live = hi - at;
-    if live < LANES {
-        bits &= (1u32 << live) - 1;
-    }
-    while bits != 0 {
-        let pos = at + bits.trailing_zeros() as usize;
-        if rays.leaf[pos] != own {
-            crossings[pos].fetch_add(1, Ordering::Relaxed);
-        }
-        bits &= bits - 1;
-    }
-}
-
 /// The exact disk test of every occluder against the rays of its runs, [`LANES`] at a time,
 /// in portable code (the same f64 operations, in the same order, as [`Disk::crossed_by`]).
-fn test_chunk(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, crossings: &[AtomicU32]) {
+fn test_chunk(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
     let lanes = |a: &[f64], at: usize| -> [f64; LANES] {
         a[at..at + LANES].try_into().expect("padded rays")
     };
@@ -178,7 +228,7 @@ fn test_chunk(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, crossings: &
                     let yes = (range[k] > o.near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
                     bits |= u32::from(yes) << k;
                 }
-                count_hits(bits, at, hi, o.leaf, rays, crossings);
+                hits.push(bits, at, hi, o.leaf);
                 at += LANES;
             }
         }
@@ -191,12 +241,7 @@ fn test_chunk(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, crossings: &
 /// true for NaN, the others false).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn test_chunk_avx2(
-    disks: &[Occluder],
-    runs: &[(u32, u32)],
-    rays: &Rays,
-    crossings: &[AtomicU32],
-) {
+unsafe fn test_chunk_avx2(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
     use std::arch::x86_64::*;
     let mut first = 0usize;
     for o in disks {
@@ -259,7 +304,7 @@ unsafe fn test_chunk_avx2(
             let (mut at, hi) = (lo as usize, hi as usize);
             while at < hi {
                 let bits = (half(at) | (half(at + 4) << 4)) as u32;
-                count_hits(bits, at, hi, o.leaf, rays, crossings);
+                hits.push(bits, at, hi, o.leaf);
                 at += LANES;
             }
         }
@@ -271,12 +316,7 @@ unsafe fn test_chunk_avx2(
 /// f64 operation of the portable code (no FMA), and the comparisons' NaN cases alike.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn test_chunk_avx512(
-    disks: &[Occluder],
-    runs: &[(u32, u32)],
-    rays: &Rays,
-    crossings: &[AtomicU32],
-) {
+unsafe fn test_chunk_avx512(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
     use std::arch::x86_64::*;
     let mut first = 0usize;
     for o in disks {
@@ -327,7 +367,7 @@ unsafe fn test_chunk_avx512(
                 let m = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, t, zero);
                 let m = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(m, t, one);
                 let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(m, qq, a2);
-                count_hits(u32::from(m), at, hi, o.leaf, rays, crossings);
+                hits.push(u32::from(m), at, hi, o.leaf);
                 at += LANES;
             }
         }
@@ -414,17 +454,24 @@ mod tests {
         (disks, runs, rays)
     }
 
-    fn counts(f: impl FnOnce(&[AtomicU32])) -> Vec<u32> {
-        let (_, _, rays) = hard_cases();
+    /// The crossings counted from the hits that `test` keeps (room for every step).
+    fn counts(test: impl FnOnce(&mut Hits)) -> Vec<u32> {
+        let (_, runs, rays) = hard_cases();
+        let steps = runs
+            .iter()
+            .map(|&(lo, hi)| (hi - lo).div_ceil(LANES as u32) as usize)
+            .sum();
+        let mut hits = Hits::with_steps(steps);
+        test(&mut hits);
         let c: Vec<AtomicU32> = (0..rays.x.len()).map(|_| AtomicU32::new(0)).collect();
-        f(&c);
+        hits.count(&rays, &c);
         c.iter().map(|x| x.load(Ordering::Relaxed)).collect()
     }
 
     #[test]
     fn the_lanes_count_what_the_scalar_disk_test_decides() {
         let (disks, runs, rays) = hard_cases();
-        let got = counts(|c| test_chunk(&disks, &runs, &rays, c));
+        let got = counts(|h| test_chunk(&disks, &runs, &rays, h));
         let mut want = vec![0u32; rays.x.len()];
         let mut first = 0;
         for o in &disks {
@@ -451,9 +498,9 @@ mod tests {
             return;
         }
         let (disks, runs, rays) = hard_cases();
-        let portable = counts(|c| test_chunk(&disks, &runs, &rays, c));
+        let portable = counts(|h| test_chunk(&disks, &runs, &rays, h));
         // SAFETY: the CPU has AVX-512F.
-        let avx512 = counts(|c| unsafe { test_chunk_avx512(&disks, &runs, &rays, c) });
+        let avx512 = counts(|h| unsafe { test_chunk_avx512(&disks, &runs, &rays, h) });
         assert_eq!(avx512, portable);
     }
 
@@ -464,9 +511,9 @@ mod tests {
             return;
         }
         let (disks, runs, rays) = hard_cases();
-        let portable = counts(|c| test_chunk(&disks, &runs, &rays, c));
+        let portable = counts(|h| test_chunk(&disks, &runs, &rays, h));
         // SAFETY: the CPU has AVX2.
-        let avx2 = counts(|c| unsafe { test_chunk_avx2(&disks, &runs, &rays, c) });
+        let avx2 = counts(|h| unsafe { test_chunk_avx2(&disks, &runs, &rays, h) });
         assert_eq!(avx2, portable);
     }
 }
