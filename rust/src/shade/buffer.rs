@@ -39,6 +39,8 @@ pub(super) struct Buffer {
     /// targets); cells of one row of one face are consecutive.
     pub(super) start: Vec<u32>,
     pub(super) order: Vec<u32>,
+    /// The position of target `i` in `order` (`order[slot[i]] == i`).
+    pub(super) slot: Vec<u32>,
 }
 
 /// The cube face of a direction `w` (`2 a + [w_a < 0]`, `a` its largest coordinate, the first
@@ -193,6 +195,7 @@ impl Buffer {
             n_cells,
             start: Vec::new(),
             order: Vec::new(),
+            slot: Vec::new(),
         };
         // counting sort of the targets by cell
         let cells: Vec<u32> = at.par_iter().map(|&a| buf.cell_at(a) as u32).collect();
@@ -205,12 +208,15 @@ impl Buffer {
         }
         let mut fill = start.clone();
         let mut order = vec![0u32; n];
+        let mut slot = vec![0u32; n];
         for (i, &c) in cells.iter().enumerate() {
-            order[fill[c as usize] as usize] = i as u32;
-            fill[c as usize] += 1;
+            let pos = &mut fill[c as usize];
+            (order[*pos as usize], slot[i]) = (i as u32, *pos);
+            *pos += 1;
         }
         buf.start = start;
         buf.order = order;
+        buf.slot = slot;
         buf
     }
 

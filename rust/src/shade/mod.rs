@@ -152,14 +152,13 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
             }
         }
     });
-    let mut out = vec![Sight::default(); n];
-    for (pos, &i) in buf.order.iter().enumerate() {
-        out[i as usize] = Sight {
-            crossings: crossings[pos].load(Ordering::Relaxed),
-            blocked: blocked[pos].load(Ordering::Relaxed),
-        };
-    }
-    out
+    buf.slot
+        .par_iter()
+        .map(|&pos| Sight {
+            crossings: crossings[pos as usize].load(Ordering::Relaxed),
+            blocked: blocked[pos as usize].load(Ordering::Relaxed),
+        })
+        .collect()
 }
 
 /// The targets' rays in the buffer's order (gathered in parallel), padded as

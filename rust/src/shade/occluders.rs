@@ -3,6 +3,7 @@
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
 use obvhs::aabb::Aabb;
+use rayon::prelude::*;
 
 /// Relative slack of the cone test, far beyond its rounding.
 const SLACK: f64 = 1e-9;
@@ -23,24 +24,35 @@ pub(super) struct Cone {
 impl Cone {
     /// The cone round the rays `w` (relative to the sonar) of lengths `r` (> 0).
     pub(super) fn around(w: &[V3], r: &[f64]) -> Cone {
-        let mut s = [0.0f64; 3];
-        for (w, &r) in w.iter().zip(r) {
-            for d in 0..3 {
-                s[d] += w[d] / r;
-            }
-        }
+        // (the directions summed by fixed spans, the spans' sums in order: the same axis for
+        // any number of threads)
+        const SPAN: usize = 8192;
+        let s = w
+            .par_chunks(SPAN)
+            .zip(r.par_chunks(SPAN))
+            .map(|(w, r)| {
+                let mut s = [0.0f64; 3];
+                for (w, &r) in w.iter().zip(r) {
+                    for d in 0..3 {
+                        s[d] += w[d] / r;
+                    }
+                }
+                s
+            })
+            .collect::<Vec<V3>>()
+            .iter()
+            .fold([0.0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
         let ns = dot(s, s).sqrt();
         let axis = if ns > 0.0 {
             s.map(|x| x / ns)
         } else {
             [1.0, 0.0, 0.0]
         };
-        let mut cos_half = 1.0f64;
-        let mut reach = 0.0f64;
-        for (w, &r) in w.iter().zip(r) {
-            cos_half = cos_half.min(dot(*w, axis) / r);
-            reach = reach.max(r);
-        }
+        let (cos_half, reach) = w
+            .par_iter()
+            .zip(r)
+            .map(|(w, &r)| (dot(*w, axis) / r, r))
+            .reduce(|| (1.0f64, 0.0f64), |a, b| (a.0.min(b.0), a.1.max(b.1)));
         // (widened past the rounding of the directions)
         let half = (cos_half.clamp(-1.0, 1.0).acos() + SLACK).min(std::f64::consts::PI);
         Cone {

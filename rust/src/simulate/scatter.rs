@@ -206,19 +206,20 @@ fn shading_factors(
     let Some(sh) = sonar.params.shading else {
         return vec![1.0; leaves.len() + pieces.len()];
     };
+    // (in parallel; the collected lists keep their order)
     let targets: Vec<Target> = leaves
-        .iter()
+        .par_iter()
         .map(|&i| Target::Leaf {
             point: scene.centers.get(i as usize),
             leaf: i,
         })
-        .chain(pieces.iter().map(|p| Target::Piece {
+        .chain(pieces.par_iter().map(|p| Target::Piece {
             point: p.reference,
             segment: p.segment,
         }))
         .collect();
     cast(scene, pose.position, &targets, sh.branches_block)
-        .iter()
+        .par_iter()
         .map(|s| shading_factor(sh.leaf_transmission, s.crossings, s.blocked))
         .collect()
 }
@@ -304,14 +305,8 @@ fn shaded_fused(
         t.amp *= f;
     }
     wood.retain(|t| t.amp != 0.0);
-    let n_shaded = leaf_f.iter().filter(|&&f| f != 1.0).count() as u64;
-    let by_position = (n_shaded > 0).then(|| {
-        let mut f = vec![1.0; cands.len()];
-        for (&p, &x) in positions.iter().zip(leaf_f) {
-            f[p as usize] = x;
-        }
-        f
-    });
+    let n_shaded = leaf_f.par_iter().filter(|&&f| f != 1.0).count() as u64;
+    let by_position = (n_shaded > 0).then(|| by_position(cands.len(), &positions, leaf_f));
     let (re, im, n_leaves) = fast_pulse(
         scene,
         sonar,
@@ -327,6 +322,21 @@ fn shaded_fused(
         ..PoseEcho::of_leaves(re, im, n_leaves)
     };
     Ok(with_wood(scene, sonar, Some(plan), echo, &wood))
+}
+
+/// The factors `f` of the leaves at the ascending `positions` among `n` candidates, as a
+/// factor per candidate (1 for those not listed), filled in parallel by spans of candidates.
+fn by_position(n: usize, positions: &[u32], f: &[f64]) -> Vec<f64> {
+    const SPAN: usize = 16384;
+    let mut out = vec![1.0; n];
+    out.par_chunks_mut(SPAN).enumerate().for_each(|(c, span)| {
+        let lo = positions.partition_point(|&p| (p as usize) < c * SPAN);
+        let hi = positions.partition_point(|&p| (p as usize) < c * SPAN + span.len());
+        for (&p, &x) in positions[lo..hi].iter().zip(&f[lo..hi]) {
+            span[p as usize - c * SPAN] = x;
+        }
+    });
+    out
 }
 
 /// `echo` with the wood's spectrum `wood` added and kept apart (nothing without branches).
