@@ -243,3 +243,12 @@ def test_make_vec_with_max_episode_steps_truncates_the_native_batch_as_sync_does
 def test_the_batch_refuses_a_max_episode_steps_below_one_by_name():
     with pytest.raises(ValueError, match="max_episode_steps"):
         EchoFlightVectorEnv(2, max_episode_steps=0, **{**SMALL, "density": 0.0})
+
+
+def test_a_batchs_observations_are_not_overwritten_by_its_next_step():
+    batch = EchoFlightVectorEnv(2, **{**SMALL, "density": 0.0})
+    first, _ = batch.reset(seed=0)
+    kept = {key: value.copy() for key, value in first.items()}
+    batch.step(np.tile(np.array([[1.0, 0.0, 0.0, 0.5]], np.float32), (2, 1)))
+    for key in kept:
+        assert np.array_equal(first[key], kept[key])

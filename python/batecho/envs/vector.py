@@ -9,6 +9,7 @@ environments, with the same results step for step.
 
 from __future__ import annotations
 
+from copy import deepcopy
 from typing import Any
 
 import numpy as np
@@ -82,7 +83,8 @@ class EchoFlightVectorEnv(VectorEnv):
         self._observations = concatenate(
             self.single_observation_space, observations, self._observations
         )
-        return self._observations, infos
+        # a copy, as SyncVectorEnv gives: the next step refills the buffer
+        return deepcopy(self._observations), infos
 
     def step(
         self, actions: Any
@@ -131,7 +133,7 @@ class EchoFlightVectorEnv(VectorEnv):
         self._observations = concatenate(
             self.single_observation_space, observations, self._observations
         )
-        return self._observations, rewards, terminated, truncated, infos
+        return deepcopy(self._observations), rewards, terminated, truncated, infos
 
     def _fly(self, flying: list[int], velocity: np.ndarray, yaw_rate: np.ndarray) -> np.ndarray:
         """Fly the drones of environments ``flying`` one step under their commands; their
