@@ -252,3 +252,20 @@ def test_a_batchs_observations_are_not_overwritten_by_its_next_step():
     batch.step(np.tile(np.array([[1.0, 0.0, 0.0, 0.5]], np.float32), (2, 1)))
     for key in kept:
         assert np.array_equal(first[key], kept[key])
+
+
+def test_a_refused_batch_step_leaves_an_ended_environment_to_be_reset_once():
+    kw = {**SMALL, "density": 0.0}
+    hover = np.zeros((2, 4), np.float32)
+    runs = []
+    for refuse in (False, True):
+        batch = EchoFlightVectorEnv(2, **kw)
+        batch.reset(seed=0)
+        batch.envs[0].max_steps = 1  # environment 0 ends on the first step, 1 flies on
+        batch.step(hover)
+        if refuse:
+            with pytest.raises(ValueError, match="action"):
+                batch.step(np.array([[0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 0.0]]))
+        runs.append(batch.step(hover)[0])
+    for key in runs[0]:
+        assert np.array_equal(runs[0][key], runs[1][key])

@@ -101,12 +101,14 @@ class EchoFlightVectorEnv(VectorEnv):
         infos: dict[str, Any] = {}
         observations: list[Any] = [None] * n
         flying = [i for i in range(n) if not self._ended[i]]
+        # the actions are checked before an ended environment is reset, so that a refused
+        # step changes nothing
+        commands = [self.envs[i].command(a[i]) for i in flying]
         for j in np.flatnonzero(self._ended).tolist():
             observations[j], info = self.envs[j].reset()
             infos = self._add_info(infos, info, j)
             self._flying = []  # its drone must be put in the batch's simulation again
         if flying:
-            commands = [self.envs[i].command(a[i]) for i in flying]
             before = [self.envs[i]._goal_distance() for i in flying]
             states = self._fly(
                 flying, np.array([c[0] for c in commands]), np.array([c[1] for c in commands])
