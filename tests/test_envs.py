@@ -255,6 +255,8 @@ def test_sync_vector_envs_step_together():
         ({"render_mode": "human"}, "render_mode"),
         ({"ceiling_m": float("nan")}, "ceiling_m"),
         ({"ceiling_m": float("inf")}, "ceiling_m"),
+        ({"floor_db": float("-inf")}, "floor_db"),
+        ({"floor_db": -1e300}, "floor_db"),
         ({"effort_weight": float("nan")}, "effort_weight"),
         ({"collision_penalty": float("inf")}, "collision_penalty"),
         ({"success_reward": -1.0}, "success_reward"),

@@ -249,6 +249,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         method, tol = method_and_tol(method, tol)
         if int(n_range_bins) != n_range_bins or n_range_bins < 1:
             raise ValueError(f"n_range_bins must be an integer >= 1, got {n_range_bins!r}")
+        # (the empty bins hold floor_db: beyond float32's range they would be -inf)
+        if not abs(floor_db) <= float(np.finfo(np.float32).max):
+            raise ValueError(f"floor_db must be a finite float32 number (dB), got {floor_db!r}")
         if not floor_db < ceiling_db:
             raise ValueError(f"floor_db ({floor_db}) must be below ceiling_db ({ceiling_db})")
         n_sub = round(1.0 / (pulse_rate_hz * dt))
