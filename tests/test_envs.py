@@ -327,6 +327,18 @@ def test_a_nan_action_is_refused():
         env.step(np.array([np.nan, 0, 0, 0]))
 
 
+def test_an_action_outside_its_bounds_steps_as_the_action_clipped_to_them():
+    kw = {**SMALL, "density": 0.0}
+    outside, clipped = EchoFlightEnv(**kw), EchoFlightEnv(**kw)
+    outside.reset(seed=0)
+    clipped.reset(seed=0)
+    a = outside.step(np.array([5.0, -3.0, 2.0, -1.5]))
+    b = clipped.step(np.array([1.0, -1.0, 1.0, -1.0]))
+    for key in a[0]:
+        assert np.array_equal(a[0][key], b[0][key])
+    assert a[1:4] == b[1:4]
+
+
 def test_an_action_of_the_wrong_shape_is_refused_by_name():
     env = EchoFlightEnv(**{**SMALL, "density": 0.0})
     env.reset(seed=0)

@@ -8,7 +8,8 @@ corridor, and must reach the goal disc (``goal_radius_m``, horizontal) at the fa
 
 A step is one pulse interval (``1 / pulse_rate_hz`` s). The action (4,) in [-1, 1] is a command
 in the heading frame: forward, left and up velocity (times ``max_speed_mps``,
-``max_speed_mps``, ``max_climb_mps``) and yaw rate (times ``max_yaw_rate``). The SE(3)
+``max_speed_mps``, ``max_climb_mps``) and yaw rate (times ``max_yaw_rate``), clipped to [-1, 1]
+(an action that is not 4 finite numbers raises ValueError). The SE(3)
 controller tracks it through the quadrotor's full dynamics (:class:`~batecho.QuadrotorSim`,
 RK4 steps of ``dt``); at the end of the interval the sonar sends one pulse and both ears
 record its echoes.
