@@ -143,6 +143,19 @@ def test_flying_into_a_tree_terminates_with_a_collision():
     assert reward < -env.collision_penalty / 2
 
 
+def test_diving_below_the_ground_in_a_forest_terminates_with_a_collision():
+    # (a fast climb rate takes the drone from above drone_radius_m to below the ground in one
+    # step)
+    env = EchoFlightEnv(**SMALL, max_climb_mps=5.0)
+    env.reset(seed=0)
+    assert env.forest.n_trees >= 1
+    for _ in range(100):
+        _, _, terminated, truncated, info = env.step(np.array([0.0, 0.0, -1.0, 0.0]))
+        if terminated or truncated:
+            break
+    assert terminated and info["collision"] and info["position"][2] < 0.0
+
+
 def test_reaching_the_goal_ends_the_episode_with_success():
     env = EchoFlightEnv(**{**SMALL, "density": 0.0})
     _, rewards, info = run(env, blind(env), seed=2)

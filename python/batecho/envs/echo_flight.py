@@ -495,7 +495,8 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         :data:`CLEARANCE_HORIZON_M` and clipped there."""
         assert self.forest is not None
         d = min(float(path[:, 2].min()), CLEARANCE_HORIZON_M)
-        if self.forest.n_trees:
+        # (below the ground, d < 0: no distance to the forest can be smaller)
+        if self.forest.n_trees and d > 0.0:
             d = self.echo_scene().min_clearance(path, d)
             d = min(d, self.forest.bark_grid().set_clearance(path, d))
         return d
