@@ -143,6 +143,21 @@ def test_flying_into_a_tree_terminates_with_a_collision():
     assert reward < -env.collision_penalty / 2
 
 
+def test_a_step_ending_inside_a_branch_terminates_with_a_collision():
+    # (a long, fast step takes the drone from clear of the trunk to inside it, where its pulse
+    # is sent from)
+    env = EchoFlightEnv(**SMALL, pulse_rate_hz=5.0, max_speed_mps=3.0)
+    env.reset(seed=0)
+    assert env.forest.n_trees >= 1
+    policy = toward(env, env.forest.trunk_bases[0] + (0.0, 0.0, env.altitude_m))
+    for _ in range(2000):
+        obs, _, terminated, truncated, info = env.step(policy(None))
+        if terminated or truncated:
+            break
+    assert terminated and info["collision"]
+    assert env.observation_space.contains(obs)
+
+
 def test_diving_below_the_ground_in_a_forest_terminates_with_a_collision():
     # (a fast climb rate takes the drone from above drone_radius_m to below the ground in one
     # step)

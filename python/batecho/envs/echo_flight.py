@@ -114,7 +114,9 @@ def default_sonar(
     """The environment's sonar: the paper's (30 deg beam, 60-80 kHz, the detectable lobe) with
     two ears (:meth:`~batecho.Sonar.binaural`, each with the emitter's 30 deg pattern), a
     reach cut to 5 m (``max_range_m``; 3 s of flight at the top speed) and a record that
-    just covers it (200 kHz sampling, 6,000 samples = 30 ms, 5.1 m)."""
+    just covers it (200 kHz sampling, 6,000 samples = 30 ms, 5.1 m). Leaves and branch
+    pieces within ``min_range_m`` of a pulse are left out (``too_close="skip"``): the pulse
+    of a step that ends in a collision may come from inside a crown or a branch."""
     return Sonar.binaural(
         ear_separation_m,
         ear_yaw_deg,
@@ -123,6 +125,7 @@ def default_sonar(
         n_samples=6_000,
         max_range_m=5.0,
         shading=shading,
+        too_close="skip",
     )
 
 
@@ -147,7 +150,8 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     Lengths in m, speeds in m/s, rates in rad/s, times in s. ``sonar``: a
     :class:`~batecho.Sonar` with two receivers, the left ear first, and a fixed record
     (default :func:`default_sonar` of ``ear_separation_m`` and ``ear_yaw_deg``), its shading
-    set to ``shading``; ``branches``: whether branches and trunks echo; ``quadrotor``: a
+    set to ``shading`` and its ``too_close`` to ``"skip"`` (as :func:`default_sonar`'s);
+    ``branches``: whether branches and trunks echo; ``quadrotor``: a
     :class:`~batecho.Quadrotor` (default :meth:`~batecho.Quadrotor.crazyflie`);
     ``tree_params``: keyword arguments of :func:`~batecho.grow_tree`; ``variants``: distinct
     trees grown per forest (each placed tree one of them, turned and scaled).
@@ -293,7 +297,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             )
         if sonar.is_auto:
             raise ValueError("sonar must have a fixed record (an int n_samples), not 'auto'")
-        self.sonar = sonar if sonar.shading == shading else sonar.replace(shading=shading)
+        if sonar.shading != shading or sonar.too_close != "skip":
+            sonar = sonar.replace(shading=shading, too_close="skip")
+        self.sonar = sonar
         self.branches, self.shading = branches, shading
         self.ear_separation_m, self.ear_yaw_deg = float(ear_separation_m), float(ear_yaw_deg)
         self.quadrotor = Quadrotor.crazyflie() if quadrotor is None else quadrotor
