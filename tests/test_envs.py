@@ -247,6 +247,25 @@ def test_a_baseline_refuses_a_batch_of_observations_by_name(make_policy):
         policy(obs)
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"near_m": 1.0, "stop_m": 1.0}, "stop_m"),
+        ({"near_m": 1.0, "stop_m": 2.0}, "stop_m"),
+        ({"stop_m": -0.1}, "stop_m"),
+        ({"near_m": float("nan")}, "near_m"),
+        ({"near_m": 0.0, "stop_m": 0.0}, "near_m"),
+        ({"threshold_db": float("inf")}, "threshold_db"),
+        ({"turn_gain": float("nan")}, "turn_gain"),
+        ({"min_speed": 1.5}, "min_speed"),
+    ],
+)
+def test_echo_reactive_refuses_impossible_parameters_by_name(kwargs, name):
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    with pytest.raises(ValueError, match=name):
+        echo_reactive(env, **kwargs)
+
+
 def test_render_gives_an_rgb_array():
     env = EchoFlightEnv(**SMALL, render_mode="rgb_array")
     env.reset(seed=0)

@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import VectorEnv
 
+from .._validate import finite_scalar, positive_scalar
+
 __all__ = ["Policy", "blind", "echo_reactive"]
 
 Policy = Callable[[dict[str, np.ndarray]], np.ndarray]
@@ -80,6 +82,15 @@ def echo_reactive(
     sidesteps away from the louder ear (toward the goal's side when they are equal), the
     harder the nearer the nearest loud echo.
     """
+    threshold_db = finite_scalar(threshold_db, "threshold_db")
+    near_m = positive_scalar(near_m, "near_m", unit="m")
+    stop_m = positive_scalar(stop_m, "stop_m", allow_zero=True, unit="m")
+    if not stop_m < near_m:
+        raise ValueError(f"stop_m must be below near_m ({near_m} m), got {stop_m} m")
+    turn_gain = finite_scalar(turn_gain, "turn_gain")
+    min_speed = positive_scalar(min_speed, "min_speed", allow_zero=True)
+    if min_speed > 1:
+        raise ValueError(f"min_speed must be at most 1 (a fraction of full speed), got {min_speed}")
     e = _unwrapped(env, "echo_reactive")
     n_bins, reach = int(e.n_range_bins), float(e.reach_m)
     ranges = (np.arange(n_bins) + 0.5) * reach / n_bins
