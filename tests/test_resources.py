@@ -158,3 +158,17 @@ def test_a_pose_whose_branches_cut_into_too_many_pieces_is_refused_naming_the_pi
         "branch_piece_scale",
         "pieces",
     )
+
+
+@pytest.mark.parametrize(
+    "body, name",
+    [
+        ("Leaves(np.broadcast_to([2.0, 0, 0], (10**9, 3)), [[1.0, 0, 0]], [0.02])", "centers"),
+        ("Poses(np.broadcast_to([0.0, 0, 0], (10**9, 3)), [1.0, 0, 0])", "positions"),
+        ("batecho.Call(np.broadcast_to(1.0, (10**10,)), 4e5)", "samples"),
+        ("batecho.Scene(LEAF).clearance(np.broadcast_to([0.0, 0, 0], (10**9, 3)))", "points"),
+    ],
+)
+def test_an_input_array_too_large_to_copy_is_a_memory_error_naming_it(body, name):
+    # a broadcast view costs nothing; its float64 copy would be tens of GiB
+    refused(body, "MemoryError", name, "set_memory_limit")

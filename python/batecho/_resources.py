@@ -14,6 +14,8 @@ import math
 import warnings
 from typing import Any
 
+import numpy as np
+
 from . import _core
 from ._validate import integer
 
@@ -100,6 +102,18 @@ def check_memory(nbytes: float, what: str, pieces: str) -> None:
     )
 
 
+def check_copies(**arrays: Any) -> None:
+    """Refuse with ``MemoryError`` an array of ``arrays`` (name=array) whose float64 copy is
+    over the limit, before it is made: a broadcast view costs nothing, its copy may."""
+    for name, x in arrays.items():
+        try:
+            shape = np.shape(x)
+        except ValueError:  # ragged: refused where it is copied
+            continue
+        size = math.prod(shape)
+        check_memory(8.0 * size, f"a copy of {name} of shape {shape}", "pass less at once")
+
+
 __all__ = [
     "BYTES_PER_LEAF",
     "BYTES_PER_POSE",
@@ -108,6 +122,7 @@ __all__ = [
     "ECHO_BYTES_PER_SAMPLE",
     "SLOW_S",
     "SlowWarning",
+    "check_copies",
     "check_memory",
     "echoes_bytes_per_pulse",
     "human_bytes",

@@ -8,6 +8,7 @@ import numpy as np
 
 from .._geometry import crosses, dots, norms
 from .._pickle import ReadOnlyOnLoading
+from .._resources import check_copies
 from .._validate import readonly, real_array, unit_rows, vectors
 
 
@@ -31,6 +32,7 @@ class Poses(ReadOnlyOnLoading):
     __slots__ = ("_forward", "_left", "_positions", "_up")
 
     def __init__(self, positions: Any, forward: Any, up: Any = (0.0, 0.0, 1.0)):
+        check_copies(positions=positions, forward=forward, up=up)
         pos = vectors(positions, "positions")
         p = pos.shape[0]
         if p == 0:
@@ -69,6 +71,7 @@ class Poses(ReadOnlyOnLoading):
     @classmethod
     def from_rotations(cls, positions: Any, rotations: Any) -> Poses:
         """Poses from body rotation matrices (p, 3, 3) whose columns are (forward, left, up)."""
+        check_copies(positions=positions, rotations=rotations)
         pos = vectors(positions, "positions")
         R = np.asarray(rotations, dtype=np.float64)
         if R.ndim == 2:
@@ -142,6 +145,7 @@ class Poses(ReadOnlyOnLoading):
 
 def look_at(positions: Any, targets: Any, up: Any = (0.0, 0.0, 1.0)) -> Poses:
     """Poses at ``positions`` whose beam axes point at ``targets`` (each (p, 3) or (3,))."""
+    check_copies(positions=positions, targets=targets, up=up)
     pos = vectors(positions, "positions")
     tgt = vectors(targets, "targets", pos.shape[0])
     fwd = tgt - pos

@@ -9,6 +9,7 @@ from typing import Any, Literal, overload
 import numpy as np
 
 from .. import _core
+from .._resources import check_copies
 from .._validate import vectors
 from ..trees.branches import Branches
 from ..trees.leaves import Leaves, as_leaves
@@ -94,6 +95,7 @@ class Scene:
         equal distance; :func:`~batecho.forest.clearance.clearance_part` names either). Zero
         for a point on a leaf or in a branch.
         """
+        check_copies(points=points)
         pts = vectors(points, "points")
         dist, idx = self._core.clearance(pts)
         return (dist, idx) if return_index else dist
@@ -104,6 +106,7 @@ class Scene:
         exactly ``min(upper_m, clearance(points).min())``, found by walking the points in
         turn on the BVHs, each walk skipping what lies beyond the least distance found so far
         (a path's clearance at the cost of a few nearest-leaf queries)."""
+        check_copies(points=points)
         pts = vectors(points, "points")
         upper = float(upper_m)
         if math.isnan(upper) or upper < 0:

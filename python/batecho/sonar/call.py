@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from .._pickle import ReadOnlyOnLoading
+from .._resources import check_copies
 from .._validate import finite_scalar, positive_scalar, real_array
 
 __all__ = ["WINDOWS", "Call"]
@@ -75,6 +76,7 @@ class Call(ReadOnlyOnLoading):
     name: str = field(default="custom")
 
     def __post_init__(self):
+        check_copies(samples=self.samples)
         s = real_array(self.samples, "samples")
         if s.ndim != 1 or s.size < 1:
             raise ValueError(f"samples must be a non-empty 1-D array, got shape {s.shape}")

@@ -9,6 +9,7 @@ import numpy as np
 
 from .._geometry import norms
 from .._pickle import ReadOnlyOnLoading
+from .._resources import check_copies
 from .._validate import finite, readonly, real_array, vectors
 from .leaves import MAX_COORDINATE_M
 
@@ -33,6 +34,7 @@ class Branches(ReadOnlyOnLoading):
     __slots__ = ("_ends", "_radii", "_starts")
 
     def __init__(self, starts: Any, ends: Any, radii: Any):
+        check_copies(starts=starts, ends=ends, radii=radii)
         s = vectors(starts, "starts", allow_single=False)
         k = s.shape[0]
         if k == 0:

@@ -9,6 +9,7 @@ import numpy as np
 
 from .._geometry import norms
 from .._pickle import ReadOnlyOnLoading
+from .._resources import check_copies
 from .._validate import finite, readonly, real_array, unit_rows, vectors
 
 #: Coordinates beyond this (m) are refused (the BVH stores f32 boxes).
@@ -36,6 +37,7 @@ class Leaves(ReadOnlyOnLoading):
     __slots__ = ("_centers", "_normals", "_radii")
 
     def __init__(self, centers: Any, normals: Any, radii: Any):
+        check_copies(centers=centers, normals=normals, radii=radii)
         c = vectors(centers, "centers", allow_single=False)
         n = c.shape[0]
         if n == 0:
