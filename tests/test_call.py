@@ -314,3 +314,37 @@ def test_writing_onto_a_folder_is_refused_naming_it(one_ear, export, tmp_path):
 def test_a_time_expansion_given_as_text_is_refused(one_ear, tmp_path):
     with pytest.raises(TypeError, match="time_expansion"):
         one_ear.to_wav(tmp_path / "e.wav", time_expansion="10")
+
+
+def test_a_call_longer_than_the_record_costs_no_more_than_the_record():
+    # only the call's first n samples reach the record's n: the convolution of all 10^7 of
+    # them, for 64 poses, needed 5 GiB
+    from _isolated import call_in_child
+
+    r = call_in_child(
+        "e = batecho.simulate(Leaves([[2.0, 0, 0]], [[1.0, 0, 0]], [0.02]), Sonar(),\n"
+        "                     Poses(np.zeros((64, 3)), [1.0, 0, 0]))\n"
+        "call = Call(np.ones(10_000_000), 400e3)\n"
+        "e.received(call)\n"
+        "e.compressed(call)",
+        "import numpy as np\nimport batecho\nfrom batecho import Call, Leaves, Poses, Sonar",
+        memory_gb=2.0,
+    )
+    assert r["raised"] is None, r
+
+
+def test_received_of_a_call_longer_than_the_record_equals_numpy_convolve(one_ear):
+    n = one_ear.times.size
+    call = Call(np.random.default_rng(3).normal(size=n + 500), 400e3)
+    want = np.convolve(one_ear.impulse[0], call.samples)[:n]
+    got = one_ear.received(call)[0]
+    assert np.max(np.abs(got - want)) <= 1e-10 * np.max(np.abs(want))
+
+
+def test_compressed_of_a_call_longer_than_the_record_is_its_correlation_with_the_call(one_ear):
+    n = one_ear.times.size
+    call = Call(np.random.default_rng(3).normal(size=n + 500), 400e3)
+    x = one_ear.received(call)[0]
+    want = np.array([np.dot(x[t:], call.samples[: n - t]) for t in range(0, n, 997)])
+    got = one_ear.compressed(call)[0][::997] * call.energy
+    assert np.max(np.abs(got - want)) <= 1e-9 * np.max(np.abs(want))

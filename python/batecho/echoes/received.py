@@ -36,7 +36,8 @@ def received(
     sigma = positive_scalar(noise_rms, "noise_rms", allow_zero=True)
     h = np.asarray(impulse, dtype=np.float64)
     n = h.shape[-1]
-    c = call.samples.reshape((1,) * (h.ndim - 1) + (-1,))
+    # (the call's samples past the record's n reach none of the n kept)
+    c = call.samples[:n].reshape((1,) * (h.ndim - 1) + (-1,))
     y = np.asarray(oaconvolve(h, c, axes=-1)[..., :n], dtype=np.float64)
     if sigma > 0.0:
         y = y + generator(rng).normal(0.0, sigma, size=y.shape)
@@ -51,8 +52,9 @@ def matched_filter(x: np.ndarray, call: Call) -> np.ndarray:
     ``A`` at ``t0``, convolved with the call, gives ``z[t0] = A`` (docs/model.md §5b)."""
     from scipy.signal import oaconvolve
 
-    c = call.samples
-    n, m = x.shape[-1], c.size
+    n = x.shape[-1]
+    c = call.samples[:n]  # (tau >= n meets no sample of x)
+    m = c.size
     k = c[::-1].reshape((1,) * (x.ndim - 1) + (-1,))
     z = oaconvolve(x, k, axes=-1)[..., m - 1 : m - 1 + n]
     return np.asarray(z, dtype=np.float64) / call.energy
