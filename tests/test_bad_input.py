@@ -220,6 +220,13 @@ def test_bad_poses_are_refused(kw, match):
         Poses(**kw)
 
 
+@pytest.mark.parametrize("rotations", [np.eye(3) * (1 + 1j), [["a"] * 3] * 3])
+def test_rotations_that_are_not_real_numbers_are_refused_naming_rotations(rotations):
+    # complex ones lost their imaginary part, with only a NumPy warning
+    with pytest.raises(TypeError, match="rotations"):
+        Poses.from_rotations([0.0, 0.0, 0.0], rotations)
+
+
 def test_look_at_a_target_at_the_position_is_refused():
     with pytest.raises(ValueError, match="coincides"):
         batecho.look_at([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])

@@ -73,7 +73,7 @@ class Poses(ReadOnlyOnLoading):
         """Poses from body rotation matrices (p, 3, 3) whose columns are (forward, left, up)."""
         check_copies(positions=positions, rotations=rotations)
         pos = vectors(positions, "positions")
-        R = np.asarray(rotations, dtype=np.float64)
+        R = real_array(rotations, "rotations")
         if R.ndim == 2:
             R = R[None]
         if R.shape != (pos.shape[0], 3, 3):
