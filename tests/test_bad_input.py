@@ -227,6 +227,13 @@ def test_rotations_that_are_not_real_numbers_are_refused_naming_rotations(rotati
         Poses.from_rotations([0.0, 0.0, 0.0], rotations)
 
 
+@pytest.mark.parametrize("rotation", [2.0 * np.eye(3), np.diag([1.0, 1.0, -1.0])])
+def test_poses_transformed_refuses_a_matrix_that_is_not_a_rotation(rotation):
+    # as Leaves.transformed and Branches.transformed do: the move is rigid
+    with pytest.raises(ValueError, match="proper rotation"):
+        Poses([1.0, 0.0, 0.0], [1.0, 0.0, 0.0]).transformed(rotation)
+
+
 def test_look_at_a_target_at_the_position_is_refused():
     with pytest.raises(ValueError, match="coincides"):
         batecho.look_at([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])

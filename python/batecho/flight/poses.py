@@ -139,6 +139,8 @@ class Poses(ReadOnlyOnLoading):
         R = np.eye(3) if rotation is None else real_array(rotation, "rotation")
         if R.shape != (3, 3) or not np.isfinite(R).all():
             raise ValueError(f"rotation must be a finite 3x3 matrix, got shape {R.shape}")
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+            raise ValueError("rotation must be a proper rotation matrix (orthonormal, det +1)")
         t = vectors(translation, "translation")[0]
         return Poses(self._positions @ R.T + t, self._forward @ R.T, self._up @ R.T)
 
