@@ -48,6 +48,13 @@ def test_a_bad_bound_on_the_smallest_clearance_is_refused_by_name(upper, word):
         scene.min_clearance([[0.0, 0.0, 0.0]], upper)
 
 
+@pytest.mark.parametrize("upper", [None, "far", [1.0, 2.0]])
+def test_a_bound_on_the_smallest_clearance_that_is_not_a_number_is_refused_by_name(upper):
+    scene = batecho.Scene(batecho.Leaves([[1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.05]))
+    with pytest.raises(TypeError, match="upper_m"):
+        scene.min_clearance([[0.0, 0.0, 0.0]], upper)
+
+
 def echoes_of(seed: int, n_samples: int, ears: bool) -> batecho.Echoes:
     rng = np.random.default_rng(seed)
     n = 300

@@ -108,7 +108,10 @@ class Scene:
         (a path's clearance at the cost of a few nearest-leaf queries)."""
         check_copies(points=points)
         pts = vectors(points, "points")
-        upper = float(upper_m)
+        try:
+            upper = float(upper_m)
+        except (TypeError, ValueError):
+            raise TypeError(f"upper_m must be a number (m), got {upper_m!r}") from None
         if math.isnan(upper) or upper < 0:
             raise ValueError(f"upper_m must be >= 0 (m), got {upper_m!r}")
         if not len(pts):
