@@ -269,6 +269,13 @@ def test_simulate_refuses_wrong_argument_types():
         simulate(Leaves(GOOD_C, GOOD_N, GOOD_R), Sonar(), AXIS, method="magic")
 
 
+@pytest.mark.parametrize("method", [np.array(["exact"]), np.array(["exact", "fast"]), ["exact"]])
+def test_a_method_that_is_not_a_string_is_refused_naming_method(method):
+    # a one-element array passed the check and reached the core as an array
+    with pytest.raises(ValueError, match="method must be one of"):
+        simulate(Leaves(GOOD_C, GOOD_N, GOOD_R), Sonar(), AXIS, method=method)
+
+
 def test_core_scene_refuses_non_unit_normals_instead_of_panicking():
     with pytest.raises(ValueError, match="not a finite unit vector"):
         _core.Scene(GOOD_C, GOOD_N * 2.0, GOOD_R)

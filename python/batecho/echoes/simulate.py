@@ -197,7 +197,7 @@ def samples_within(echoes: Echoes, max_range_m: Any) -> np.ndarray:
 def method_and_tol(method: Any, tol: Any) -> tuple[str, float]:
     """``method`` (one of :data:`METHODS`) and ``tol`` (a number in (0, 1)) as
     :func:`simulate` takes them, or a clear error."""
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     try:
         t = float(tol)
