@@ -280,6 +280,17 @@ def test_a_given_record_of_the_wrong_shape_is_refused_by_name(two_ears, export, 
 
 
 @pytest.mark.parametrize("export", ["to_xarray", "to_mat"])
+def test_a_given_record_of_complex_numbers_is_refused_by_name(two_ears, export, tmp_path):
+    # its imaginary part was dropped with only a NumPy warning
+    args = (tmp_path / "e.mat",) if export == "to_mat" else ()
+    call = CALLS["linear_fm"]()
+    record = two_ears.received(call) + 1j
+    with pytest.raises(TypeError, match="received must hold real numbers"):
+        getattr(two_ears, export)(*args, call=call, received=record)
+    assert not (tmp_path / "e.mat").exists()
+
+
+@pytest.mark.parametrize("export", ["to_xarray", "to_mat"])
 def test_a_given_record_without_its_call_is_refused(two_ears, export, tmp_path):
     args = (tmp_path / "e.mat",) if export == "to_mat" else ()
     with pytest.raises(ValueError, match="pass call="):

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._core import __version__
+from .._validate import real_array
 from ..sonar.record import sonar_params
 
 if TYPE_CHECKING:
@@ -195,7 +196,7 @@ def _received(echoes: Any, call: Call, received: Any) -> np.ndarray:
     if received is None:
         rec = echoes.received(call)
     else:
-        rec = np.array(received, dtype=np.float64)
+        rec = real_array(received, "received")
         if rec.shape != echoes.impulse.shape:
             raise ValueError(
                 f"received must have the impulse responses' shape {echoes.impulse.shape}, "
