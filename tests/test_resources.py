@@ -160,6 +160,19 @@ def test_a_pose_whose_branches_cut_into_too_many_pieces_is_refused_naming_the_pi
     )
 
 
+def test_branches_sharing_one_end_point_by_the_thousand_are_refused_before_they_are_joined():
+    # 100,000 segments from one point: each joined to every other, 10^10 joints
+    refused(
+        "rng = np.random.default_rng(0)\n"
+        "star = batecho.Branches(np.zeros((100_000, 3)), rng.normal(size=(100_000, 3)),\n"
+        "                        np.full(100_000, 0.01))\n"
+        "batecho.Scene(None, branches=star)",
+        "MemoryError",
+        "100000 share one",
+        "set_memory_limit",
+    )
+
+
 @pytest.mark.parametrize(
     "body, name",
     [

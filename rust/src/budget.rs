@@ -84,6 +84,14 @@ pub const BYTES_PER_PIECE: f64 = 320.0;
 /// Memory per leaf of a scene (bytes): the arrays, their copies in BVH order, the BVH.
 pub const BYTES_PER_LEAF: f64 = 400.0;
 
+/// Memory per branch segment of a scene (bytes): the arrays, the boxes, the BVH, the map of
+/// end points.
+pub const BYTES_PER_SEGMENT: f64 = 400.0;
+
+/// Memory per joint of two branch segments at a shared end point (bytes): each segment's
+/// entry of the other.
+pub const BYTES_PER_JOINT: f64 = 8.0;
+
 /// What `simulate` returns for `p` poses (bytes): each pose's spectrum (`m` complex bins) and
 /// impulse (`n` samples, when asked for), held per pose, gathered, and handed to the caller.
 pub fn echoes_bytes(p: usize, m: usize, n: usize, impulse: bool) -> f64 {

@@ -1,6 +1,7 @@
 //! Branches as straight cylinder segments (start, end, radius), validated, with what every pose
 //! needs of them once: unit axes, lengths, bounding spheres, and which segments meet at a
 //! shared end point (the joints of one skeleton).
+use crate::budget;
 use crate::error::{invalid, Result};
 use crate::math::vec3::{dot, V3};
 use crate::physics::distance::point_box_distance;
@@ -63,6 +64,11 @@ impl Branches {
         if n > u32::MAX as usize - 1 {
             return invalid("at most 2^32 - 2 branch segments are supported");
         }
+        budget::check(
+            n as f64 * budget::BYTES_PER_SEGMENT,
+            || format!("a scene of {n} branch segments"),
+            "split the branches into several scenes",
+        )?;
         for (name, pts) in [("start", &starts), ("end", &ends)] {
             for (i, c) in pts.iter().enumerate() {
                 if !c.iter().all(|x| x.is_finite()) {
@@ -98,7 +104,7 @@ impl Branches {
             mids.push([a[0] + 0.5 * d[0], a[1] + 0.5 * d[1], a[2] + 0.5 * d[2]]);
             bound_radii.push(0.5 * l + radii[i]);
         }
-        let (joined, joined_at) = joints(&starts, &ends);
+        let (joined, joined_at) = joints(&starts, &ends)?;
         let boxes: Vec<_> = (0..n)
             .map(|i| segment_box(starts[i], ends[i], radii[i]))
             .collect();
@@ -187,7 +193,7 @@ impl Branches {
 
 /// For each segment, the other segments that share one of its end points exactly, as CSR
 /// lists (ascending).
-fn joints(starts: &[V3], ends: &[V3]) -> (Vec<u32>, Vec<u32>) {
+fn joints(starts: &[V3], ends: &[V3]) -> Result<(Vec<u32>, Vec<u32>)> {
     let key = |v: V3| v.map(f64::to_bits);
     let mut at: HashMap<[u64; 3], Vec<u32>> = HashMap::new();
     for (i, (s, e)) in starts.iter().zip(ends).enumerate() {
@@ -195,6 +201,29 @@ fn joints(starts: &[V3], ends: &[V3]) -> (Vec<u32>, Vec<u32>) {
         if key(*e) != key(*s) {
             at.entry(key(*e)).or_default().push(i as u32);
         }
+    }
+    // (segments sharing one end point are all joined: k of them make k (k - 1) entries,
+    // which many segments from one point would make more than memory holds)
+    let joints: f64 = at
+        .values()
+        .map(|v| v.len() as f64 * (v.len() as f64 - 1.0))
+        .sum();
+    let crowded = at.values().map(Vec::len).max().unwrap_or(0);
+    budget::check(
+        joints * budget::BYTES_PER_JOINT,
+        || {
+            format!(
+                "joining {} branch segments at their shared end points ({crowded} share one)",
+                starts.len()
+            )
+        },
+        "share each end point among fewer segments",
+    )?;
+    if joints >= u32::MAX as f64 {
+        return invalid(format!(
+            "branch segments share end points too often: {joints:e} joints (at most 2^32 - 1; \
+             {crowded} segments share one point)"
+        ));
     }
     let mut joined = Vec::new();
     let mut joined_at = Vec::with_capacity(starts.len() + 1);
@@ -211,7 +240,7 @@ fn joints(starts: &[V3], ends: &[V3]) -> (Vec<u32>, Vec<u32>) {
         joined.extend(mine);
         joined_at.push(joined.len() as u32);
     }
-    (joined, joined_at)
+    Ok((joined, joined_at))
 }
 
 #[cfg(test)]
