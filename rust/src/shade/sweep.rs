@@ -1,9 +1,9 @@
 //! The leaf disks' pass over the light buffer: each occluding leaf is tested against the
-//! targets of the cells its bounding ball reaches (rows of cells, contiguous in memory),
-//! farther than its nearest point, by the exact test of [`Disk::crossed_by`] written lane by
-//! lane, in AVX2 where the CPU has it and in portable code otherwise. The lanes perform the
-//! same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so they decide
-//! every ray alike.
+//! targets of the cells its disk can reach (rows of cells, contiguous in memory), farther than
+//! its nearest point, by the exact test of [`Disk::crossed_by`] written lane by lane, in
+//! AVX-512 or AVX2 where the CPU has them and in portable code otherwise. The lanes perform the
+//! same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so they decide every
+//! ray alike.
 use super::buffer::{Buffer, DISKS};
 use super::crossing::Disk;
 use crate::math::vec3::{dot, V3};
@@ -69,7 +69,7 @@ pub(super) fn leaf_chunk(
 }
 
 /// The disks of the leaves `chunk` (stored indices) and their runs of positions in the buffer.
-pub(super) fn occluders_of(
+fn occluders_of(
     scene: &Scene,
     origin: V3,
     buf: &Buffer,
@@ -98,7 +98,7 @@ pub(super) fn occluders_of(
         }
         let live = block.len();
         let mut ends = [runs.len() as u32; DISKS];
-        // (a ball too near the sonar to bin visits every cell: every target is tested)
+        // (a disk too near the sonar to bin visits every cell: every target is tested)
         buf.disks_cells(&v, &nrm, &a, |k, c0, c1| {
             let (lo, hi) = (buf.start[c0], buf.start[c1]);
             if k < live && lo < hi {
@@ -117,12 +117,7 @@ pub(super) fn occluders_of(
 }
 
 /// [`test_chunk`] in the widest lanes the CPU has.
-pub(super) fn test_chunk_fastest(
-    disks: &[Occluder],
-    runs: &[(u32, u32)],
-    rays: &Rays,
-    hits: &mut Hits,
-) {
+fn test_chunk_fastest(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx512f") {
         // SAFETY: the CPU has AVX-512F.
@@ -142,7 +137,7 @@ pub(super) fn test_chunk_fastest(
 /// padding past its run's end cleared) and the occluding leaf. The tests append every step
 /// and keep only those with a hit, without a branch, so that the divisions of successive
 /// steps overlap; the hits are counted after.
-pub(super) struct Hits {
+struct Hits {
     at: Vec<u32>,
     own: Vec<u32>,
     bits: Vec<u8>,
@@ -151,7 +146,7 @@ pub(super) struct Hits {
 
 impl Hits {
     /// Room for `steps` steps (and the one slot each append writes past the kept ones).
-    pub(super) fn with_steps(steps: usize) -> Hits {
+    fn with_steps(steps: usize) -> Hits {
         Hits {
             at: vec![0; steps + 1],
             own: vec![0; steps + 1],
@@ -176,7 +171,7 @@ impl Hits {
 
     /// Count each kept hit into `crossings` (by position), unless the ray is the occluding
     /// leaf's own.
-    pub(super) fn count(&self, rays: &Rays, crossings: &[AtomicU32]) {
+    fn count(&self, rays: &Rays, crossings: &[AtomicU32]) {
         for k in 0..self.len {
             let (at, own) = (self.at[k] as usize, self.own[k]);
             let mut bits = self.bits[k] as u32;
@@ -193,7 +188,7 @@ impl Hits {
 
 /// An occluding leaf as the tests take it: its disk, the range below which no ray can cross
 /// it, its stored index, and the end of its runs in the chunk's list.
-pub(super) struct Occluder {
+struct Occluder {
     disk: Disk,
     near: f64,
     leaf: u32,
