@@ -59,14 +59,13 @@ pub(super) fn leaf_chunk(
     crossings: &[AtomicU32],
 ) {
     let (disks, runs) = occluders_of(scene, origin, buf, chunk);
-    let steps: usize = runs
-        .iter()
-        .map(|&(lo, hi)| (hi - lo).div_ceil(LANES as u32) as usize)
-        .sum();
-    let mut hits = Hits::with_steps(steps);
+    let mut hits = Hits::new(rays, crossings, HITS_HELD);
     test_chunk_fastest(&disks, &runs, rays, &mut hits);
-    hits.count(rays, crossings);
+    hits.count();
 }
+
+/// Steps with a hit that [`Hits`] holds before it counts them.
+const HITS_HELD: usize = 4096;
 
 /// The disks of the leaves `chunk` (stored indices) and their runs of positions in the buffer.
 fn occluders_of(
@@ -136,22 +135,29 @@ fn test_chunk_fastest(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits
 /// The steps of a chunk's tests that hit: each step's first position, its lanes that hit (the
 /// padding past its run's end cleared) and the occluding leaf. The tests append every step
 /// and keep only those with a hit, without a branch, so that the divisions of successive
-/// steps overlap; the hits are counted after.
-struct Hits {
+/// steps overlap; the hits are counted into `crossings` (by position) when the buffer is full
+/// and at the end.
+struct Hits<'a> {
     at: Vec<u32>,
     own: Vec<u32>,
     bits: Vec<u8>,
     len: usize,
+    rays: &'a Rays,
+    crossings: &'a [AtomicU32],
 }
 
-impl Hits {
-    /// Room for `steps` steps (and the one slot each append writes past the kept ones).
-    fn with_steps(steps: usize) -> Hits {
+impl<'a> Hits<'a> {
+    /// Room for `held` steps with a hit (at least one).
+    fn new(rays: &'a Rays, crossings: &'a [AtomicU32], held: usize) -> Hits<'a> {
+        // (one slot more: each append writes past the kept steps)
+        let room = held.max(1) + 1;
         Hits {
-            at: vec![0; steps + 1],
-            own: vec![0; steps + 1],
-            bits: vec![0; steps + 1],
+            at: vec![0; room],
+            own: vec![0; room],
+            bits: vec![0; room],
             len: 0,
+            rays,
+            crossings,
         }
     }
 
@@ -167,22 +173,26 @@ impl Hits {
         self.own[k] = own;
         self.bits[k] = bits as u8;
         self.len += usize::from(bits != 0);
+        if self.len + 1 == self.at.len() {
+            self.count();
+        }
     }
 
-    /// Count each kept hit into `crossings` (by position), unless the ray is the occluding
-    /// leaf's own.
-    fn count(&self, rays: &Rays, crossings: &[AtomicU32]) {
+    /// Count each kept hit into `crossings`, unless the ray is the occluding leaf's own, and
+    /// empty the buffer.
+    fn count(&mut self) {
         for k in 0..self.len {
             let (at, own) = (self.at[k] as usize, self.own[k]);
             let mut bits = self.bits[k] as u32;
             while bits != 0 {
                 let pos = at + bits.trailing_zeros() as usize;
-                if rays.leaf[pos] != own {
-                    crossings[pos].fetch_add(1, Ordering::Relaxed);
+                if self.rays.leaf[pos] != own {
+                    self.crossings[pos].fetch_add(1, Ordering::Relaxed);
                 }
                 bits &= bits - 1;
             }
         }
+        self.len = 0;
     }
 }
 
@@ -449,17 +459,14 @@ mod tests {
         (disks, runs, rays)
     }
 
-    /// The crossings counted from the hits that `test` keeps (room for every step).
+    /// The crossings counted from the hits that `test` keeps (a few at a time, so that the
+    /// buffer fills and is counted many times over).
     fn counts(test: impl FnOnce(&mut Hits)) -> Vec<u32> {
-        let (_, runs, rays) = hard_cases();
-        let steps = runs
-            .iter()
-            .map(|&(lo, hi)| (hi - lo).div_ceil(LANES as u32) as usize)
-            .sum();
-        let mut hits = Hits::with_steps(steps);
-        test(&mut hits);
+        let (_, _, rays) = hard_cases();
         let c: Vec<AtomicU32> = (0..rays.x.len()).map(|_| AtomicU32::new(0)).collect();
-        hits.count(&rays, &c);
+        let mut hits = Hits::new(&rays, &c, 3);
+        test(&mut hits);
+        hits.count();
         c.iter().map(|x| x.load(Ordering::Relaxed)).collect()
     }
 
