@@ -122,3 +122,62 @@ def test_auto_below_the_fast_floor_is_exact():
     exact = simulate(leaves, canonical_sonar(), canonical_pose(), method="exact")
     auto = simulate(leaves, canonical_sonar(), canonical_pose(), method="auto", tol=1e-15)
     assert auto.spectrum.tobytes() == exact.spectrum.tobytes()
+
+
+# Known breaches of the promise, found by a search of bands and tolerances beyond the paper's
+# 60-80 kHz, where the node count of the fast path is calibrated (`WORST_CHEB` in
+# rust/src/fast/plan.rs). Each is strict: it fails once the fast path keeps its promise there,
+# and the mark is then to go. The exact sums agree with `batecho.reference` to about 1e-12.
+POSE_X = Poses([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+
+
+@pytest.mark.xfail(strict=True, reason="fast's node count is calibrated on 60-80 kHz")
+def test_fast_is_within_tol_for_one_leaf_on_a_wide_low_band():
+    leaf = Leaves(
+        [[7.59339219856452, 0.3838605591924311, -1.54801922515559]],
+        [[-0.4426848543133972, 1.017486474381074, -1.3066112595978296]],
+        [0.011178520748408966],
+    )
+    assert_within_tol(leaf, Sonar(band_hz=(20e3, 100e3)), POSE_X, 1e-6)
+
+
+@pytest.mark.xfail(strict=True, reason="fast's node count is calibrated on 60-80 kHz")
+def test_fast_is_within_tol_for_one_leaf_on_a_wide_band_with_air_absorption():
+    sonar = Sonar(
+        fs=250e3,
+        band_hz=(10454.108615722813, 105024.30051228765),
+        beamwidth_deg=115.0,
+        window="rect",
+        spreading=False,
+        absorption=batecho.Atmosphere(),
+    )
+    leaf = Leaves(
+        [[8.848031611753914, 2.3512201024704393, -2.548107166378146]],
+        [[0.5578125377176493, 0.7415482315366199, -0.37276184497599507]],
+        [0.08397402293016572],
+    )
+    assert_within_tol(leaf, sonar, POSE_X, 8.16e-3)
+
+
+@pytest.mark.xfail(strict=True, reason="the wood's fast sum is calibrated on 60-80 kHz")
+def test_fast_is_within_tol_for_branches_on_a_wide_band_with_air_absorption():
+    rng = np.random.default_rng(17)
+    r, az, el = rng.uniform(1, 8, 6), rng.uniform(-0.3, 0.3, 6), rng.uniform(-0.3, 0.3, 6)
+    s = np.c_[r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)]
+    wood = batecho.Branches(s, s + rng.normal(size=(6, 3)), rng.uniform(0.01, 0.1, 6))
+    sonar = Sonar(
+        beamwidth_deg=60,
+        band_hz=(10e3, 110e3),
+        fs=250e3,
+        absorption=batecho.Atmosphere(),
+        window="rect",
+    )
+    exact = simulate(batecho.Scene(None, branches=wood), sonar, POSE_X, method="exact")
+    fast = simulate(batecho.Scene(None, branches=wood), sonar, POSE_X, method="fast", tol=1e-6)
+    assert rel_err(fast.spectrum, exact.spectrum) <= 1e-6
+
+
+@pytest.mark.xfail(strict=True, reason="the interpolants' floor is about 1.5e-13")
+def test_fast_is_within_its_tightest_tol_for_a_leaf_at_the_reach():
+    leaf = Leaves([[10.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    assert_within_tol(leaf, Sonar(), POSE_X, 1e-13)
