@@ -35,6 +35,13 @@ pub(crate) mod test_util {
         }
     }
 
+    /// A direction uniform on the sphere, from two of `u`'s numbers.
+    pub(crate) fn unit_vector(u: &mut impl FnMut() -> f64) -> [f64; 3] {
+        let (z, ph) = (2.0 * u() - 1.0, 2.0 * std::f64::consts::PI * u());
+        let q = (1.0 - z * z).sqrt();
+        [q * ph.cos(), q * ph.sin(), z]
+    }
+
     /// A sonar with a 30 degree beam and the defaults, as `edit` changes them.
     pub(crate) fn sonar_with(
         edit: impl FnOnce(&mut crate::sonar::SonarParams),

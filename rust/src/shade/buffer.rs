@@ -365,7 +365,18 @@ impl Buffer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::uniforms;
+    use crate::test_util::{uniforms, unit_vector};
+
+    /// The cell of each of the `n` targets binned in `buf`.
+    fn cells_of_targets(buf: &Buffer, n: usize) -> Vec<usize> {
+        let mut cell_of = vec![0usize; n];
+        for c in 0..buf.n_cells() {
+            for k in buf.start[c]..buf.start[c + 1] {
+                cell_of[buf.order[k as usize] as usize] = c;
+            }
+        }
+        cell_of
+    }
 
     /// Disks facing the sonar, edge-on to it and at random, near and far, on every face and
     /// across faces' edges.
@@ -373,11 +384,7 @@ mod tests {
     fn a_disk_reaches_the_cells_of_every_ray_that_crosses_it() {
         use super::super::crossing::Disk;
         let mut u = uniforms(12);
-        let mut dir = || {
-            let (z, ph) = (2.0 * u() - 1.0, 2.0 * std::f64::consts::PI * u());
-            let q = (1.0 - z * z).sqrt();
-            [q * ph.cos(), q * ph.sin(), z]
-        };
+        let mut dir = || unit_vector(&mut u);
         let targets: Vec<V3> = (0..4000).map(|_| dir().map(|x| 3.0 * x)).collect();
         let mut disks = Vec::new();
         for k in 0..600 {
@@ -398,12 +405,7 @@ mod tests {
         }
         for h in [0.01, 0.05, 0.3] {
             let buf = Buffer::new(&targets, h);
-            let mut cell_of = vec![0usize; targets.len()];
-            for c in 0..buf.n_cells() {
-                for k in buf.start[c]..buf.start[c + 1] {
-                    cell_of[buf.order[k as usize] as usize] = c;
-                }
-            }
+            let cell_of = cells_of_targets(&buf, targets.len());
             let mut crossed = 0;
             for batch in disks.chunks(DISKS) {
                 let mut v = [[0.0; DISKS]; 3];
@@ -436,20 +438,11 @@ mod tests {
     #[test]
     fn a_ball_reaches_the_cells_of_every_direction_it_holds() {
         let mut u = uniforms(11);
-        let mut dir = || {
-            let (z, ph) = (2.0 * u() - 1.0, 2.0 * std::f64::consts::PI * u());
-            let q = (1.0 - z * z).sqrt();
-            [q * ph.cos(), q * ph.sin(), z]
-        };
+        let mut dir = || unit_vector(&mut u);
         let targets: Vec<V3> = (0..4000).map(|_| dir().map(|x| 3.0 * x)).collect();
         for h in [0.01, 0.05, 0.3] {
             let buf = Buffer::new(&targets, h);
-            let mut cell_of = vec![0usize; targets.len()];
-            for c in 0..buf.n_cells() {
-                for k in buf.start[c]..buf.start[c + 1] {
-                    cell_of[buf.order[k as usize] as usize] = c;
-                }
-            }
+            let cell_of = cells_of_targets(&buf, targets.len());
             for _ in 0..300 {
                 let centre = dir().map(|x| 2.0 * x);
                 let rho = 0.4 * (centre.iter().map(|x| x * x).sum::<f64>()).sqrt() / 4.6;

@@ -2,7 +2,7 @@
 use super::crossing::Disk;
 use super::*;
 use crate::scene::Branches;
-use crate::test_util::uniforms;
+use crate::test_util::{uniforms, unit_vector};
 
 /// Every leaf and segment against every target, by the same exact tests.
 fn brute_force(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool) -> Vec<Sight> {
@@ -43,12 +43,6 @@ fn brute_force(scene: &Scene, origin: V3, targets: &[Target], branches_block: bo
         .collect()
 }
 
-fn unit(u: &mut impl FnMut() -> f64) -> V3 {
-    let (z, ph) = (2.0 * u() - 1.0, 2.0 * std::f64::consts::PI * u());
-    let q = (1.0 - z * z).sqrt();
-    [q * ph.cos(), q * ph.sin(), z]
-}
-
 /// `n` leaves in clumps in front of the origin, radii 5 mm - 5 cm.
 fn clumped(n: usize, seed: u64, branches: Branches) -> Scene {
     let mut u = uniforms(seed);
@@ -63,7 +57,7 @@ fn clumped(n: usize, seed: u64, branches: Branches) -> Scene {
             k[1] + 0.6 * (u() - 0.5),
             k[2] + 0.6 * (u() - 0.5),
         ]);
-        nv.push(unit(&mut u));
+        nv.push(unit_vector(&mut u));
         r.push(0.005 * 10f64.powf(u()));
     }
     Scene::with_branches(c, nv, r, branches).unwrap()
@@ -150,7 +144,7 @@ fn branch_blocking_equals_brute_force_and_spares_a_pieces_own_skeleton() {
     let (mut s, mut e, mut r) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..150 {
         let a = [1.0 + 6.0 * u(), -2.0 + 4.0 * u(), -2.0 + 4.0 * u()];
-        let d = unit(&mut u);
+        let d = unit_vector(&mut u);
         let l = 0.05 + 0.8 * u();
         s.push(a);
         e.push([a[0] + l * d[0], a[1] + l * d[1], a[2] + l * d[2]]);
@@ -198,7 +192,7 @@ fn branch_blocking_of_a_narrow_cone_of_rays_equals_brute_force_among_many_segmen
     let (mut s, mut e, mut r) = (Vec::new(), Vec::new(), Vec::new());
     for k in 0..4000 {
         let a = [-10.0 + 20.0 * u(), -10.0 + 20.0 * u(), -10.0 + 20.0 * u()];
-        let d = unit(&mut u);
+        let d = unit_vector(&mut u);
         let l = if k % 10 == 0 {
             2.0 + 6.0 * u()
         } else {
