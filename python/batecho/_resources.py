@@ -14,8 +14,6 @@ import math
 import warnings
 from typing import Any
 
-import numpy as np
-
 from . import _core
 from ._validate import integer
 
@@ -106,9 +104,10 @@ def check_copies(**arrays: Any) -> None:
     """Refuse with ``MemoryError`` an array of ``arrays`` (name=array) whose float64 copy is
     over the limit, before it is made: a broadcast view costs nothing, its copy may."""
     for name, x in arrays.items():
-        try:
-            shape = np.shape(x)
-        except ValueError:  # ragged: refused where it is copied
+        # (only arrays: a list's copy costs about what the list already holds, and taking its
+        # shape would convert it once more)
+        shape = getattr(x, "shape", None)
+        if not isinstance(shape, tuple):
             continue
         size = math.prod(shape)
         check_memory(8.0 * size, f"a copy of {name} of shape {shape}", "pass less at once")
