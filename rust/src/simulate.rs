@@ -13,7 +13,7 @@ use crate::echo::spectrum::band_spectrum;
 use crate::error::{invalid, Result};
 use crate::fast::pulse::fast_pulse;
 use crate::fast::FastSonar;
-use crate::fast::{fast_band_spectrum, FastPlan};
+use crate::fast::{band_tightening, fast_band_spectrum, FastPlan};
 use crate::lobe::candidates::Candidates;
 use crate::lobe::{candidates, farthest_member_range, members_of, Search};
 use crate::physics::pose::Pose;
@@ -157,8 +157,14 @@ pub fn simulate(
     }
     check_leaf_sizes(scene, sonar)?;
     scatter::check_branch_sizes(scene, sonar)?;
-    // With leaves and wood, each part's spectrum gets half of `tol` (docs/model.md §9).
-    let share = scatter::tol_share(scene);
+    // With leaves and wood, each part's spectrum gets half of `tol` (docs/model.md §9); on a
+    // band wider than the fast path's calibration, a tenth or a hundredth of that, and none
+    // (the exact sum) on the widest (§6).
+    let tightening = match (sonar.freqs.first(), sonar.freqs.last()) {
+        (Some(&lo), Some(&hi)) => band_tightening(lo, hi),
+        _ => 1.0,
+    };
+    let share = scatter::tol_share(scene) / tightening;
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     // Each receiver has a pose's arrays of its own: the output is that many records per pose.
@@ -187,7 +193,8 @@ pub fn simulate(
     let plan = match method {
         Method::Exact => None,
         Method::Fast { tol } => {
-            if share < 1.0 && tol >= crate::fast::MIN_TOL && tol * share < crate::fast::MIN_TOL {
+            crate::fast::check_tol(tol)?;
+            if tol * share < crate::fast::MIN_TOL {
                 None // (below the fast method's floor: the exact sum holds tol)
             } else {
                 Some(sonar.plans.get(sonar, tol * share)?)

@@ -53,7 +53,10 @@ pub(crate) use nodes::{choose_nodes_from, BatchScratch};
 pub use nodes::{ADAPT_MIN_LEAVES, LOW_SERIES_TOL, SHORT_SERIES_TOL};
 pub(crate) use pass::{beside_leftovers, fast_sum_fixed, leftover_pass, spread_task};
 pub use pass::{chunk_len, fast_band_spectrum, fast_sum_terms, FAST_CHUNK};
-pub use plan::{nodes_for_tol, FastPlan, PlanCache, K_FACTOR_TOL, MAX_NODES, MIN_TOL};
+pub use plan::{
+    band_tightening, check_tol, nodes_for_tol, FastPlan, PlanCache, K_FACTOR_TOL, MAX_NODES,
+    MIN_TOL,
+};
 pub(crate) use po::po_leaf;
 pub(crate) use pool::take_grid;
 pub use prepared::FastSonar;
