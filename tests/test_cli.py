@@ -527,6 +527,18 @@ def test_an_allowed_flight_through_a_tree_runs_with_a_one_line_warning(tmp_path,
         assert z["clearance_m"].shape == (10,) and z["clearance_m"][-1] < 0.5
 
 
+def test_an_obj_warning_is_one_line_without_the_source_line(tmp_path, capsys):
+    text = TINY.replace(
+        'kind = "leaf_box"\ndensity_per_m3 = 3.0',
+        f'kind = "obj"\npath = "{(FIXTURES / "obj" / "missing_mtl.obj").as_posix()}"',
+    ).replace("[flight]", "[flight]\nallow_low_clearance = true")
+    scene = _write(tmp_path, text)
+    assert main(["simulate", str(scene), "--out", str(tmp_path / "o"), "--no-plots"]) == 0
+    err = capsys.readouterr().err
+    assert "batecho simulate: warning: " in err and "not found in the OBJ's folder" in err
+    assert "ObjWarning" not in err and "load_obj(" not in err
+
+
 def test_allowing_low_clearance_keeps_the_echoes_bits(tmp_path):
     from batecho.scenefile import run_scenefile
 

@@ -152,6 +152,20 @@ def test_a_resume_recomputes_a_chunk_marked_complete_but_damaged(made, tmp_path)
     assert after.tobytes() == before.tobytes()
 
 
+def test_the_command_line_tells_of_a_damaged_chunk_in_one_line(made, tmp_path, capsys):
+    from batecho.cli import main
+
+    store = copy_of(made, tmp_path)
+    chunk = store / "position" / "c" / "1" / "0" / "0"
+    flip_byte(chunk, len(chunk.read_bytes()) // 2)
+    spec = tmp_path / "spec.toml"
+    spec.write_text(made[1].to_toml(), encoding="utf-8")
+    assert main(["dataset", "generate", str(spec), str(store), "--workers", "1", "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "batecho dataset: warning: " in err and "chunk 1 was marked complete" in err
+    assert "UserWarning" not in err and "open_for_generate" not in err
+
+
 @pytest.mark.parametrize("command", ["verify", "show"])
 def test_a_toml_spec_given_for_a_store_is_named_as_a_spec_not_as_missing(tmp_path, capsys, command):
     from batecho.cli import main

@@ -10,6 +10,7 @@ import argparse
 import sys
 import warnings
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL, METHODS
 from ..forest.models import TREE_MODELS
@@ -323,11 +324,19 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
 
 def _warning_printer(name: str, fallback: Callable[..., None]) -> Callable[..., None]:
     """``warnings.showwarning`` that prints batecho's own warnings as one line,
-    ``batecho NAME: warning: ...``, and others as Python does."""
+    ``batecho NAME: warning: ...``, and others as Python does. batecho's own are its warning
+    classes and any warning raised from its code (a dataset's damaged chunk): the user has
+    no use for the file and line of batecho's source that raised it."""
+    from .._resources import SlowWarning
     from ..forest.clearance import ClearanceWarning
+    from ..forest.ipp import IPPWarning
+    from ..trees.objfile import ObjWarning
+
+    ours = (ClearanceWarning, ObjWarning, SlowWarning, IPPWarning)
+    package = Path(__file__).resolve().parents[1]
 
     def show(message, category, filename, lineno, file=None, line=None) -> None:
-        if issubclass(category, ClearanceWarning):
+        if issubclass(category, ours) or package in Path(filename).resolve().parents:
             print(f"batecho {name}: warning: {message}", file=file or sys.stderr)
         else:
             fallback(message, category, filename, lineno, file, line)
