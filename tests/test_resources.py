@@ -144,6 +144,14 @@ def test_the_python_check_says_what_and_how_to_split_it():
     check_memory(1e3, "a small thing", "")
 
 
+@pytest.mark.parametrize(
+    ("nbytes", "size"), [(1e300, "9.09e+287 TiB"), (2.0**40 * 123456789, "1.23e+08 TiB")]
+)
+def test_an_astronomical_request_is_sized_in_a_few_digits(nbytes, size):
+    with pytest.raises(MemoryError, match=rf"needs about {size.replace('+', '[+]')}, over"):
+        check_memory(nbytes, "the thing", "do it in pieces")
+
+
 def test_a_pose_whose_branches_cut_into_too_many_pieces_is_refused_naming_the_piece_scale():
     # 3000 trunks 8 m tall at 2-3 m, cut finely: billions of bytes of pieces for one pose
     refused(

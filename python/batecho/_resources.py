@@ -81,7 +81,10 @@ def set_memory_limit(nbytes: Any) -> int:
 
 def human_bytes(nbytes: float) -> str:
     """A size for people, in binary units as the limit is set: ``"4.0 GiB"``, ``"512.0 MiB"``
-    (as the core writes it)."""
+    (as the core writes it); beyond a million TiB in three digits, ``"9.09e+287 TiB"``
+    (an absurd request's size in full would be hundreds of digits long)."""
+    if nbytes >= 2.0**60:
+        return f"{nbytes / 2.0**40:.3g} TiB"
     for name, scale in (("TiB", 2.0**40), ("GiB", 2.0**30), ("MiB", 2.0**20), ("KiB", 2.0**10)):
         if nbytes >= scale:
             return f"{nbytes / scale:.1f} {name}"
