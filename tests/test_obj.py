@@ -390,6 +390,13 @@ def test_malformed_lines_name_file_and_line(tmp_path, text, match):
         load_obj(p)
 
 
+def test_a_leaf_too_far_out_is_refused_naming_the_file(tmp_path):
+    p = tmp_path / "far.obj"
+    p.write_text("o leaf\nv 0 0 0\nv 1e16 0 0\nv 0 1e16 0\nf 1 2 3\n")
+    with pytest.raises(ValueError, match=r"far\.obj: leaf 0 has a centre coordinate beyond"):
+        load_obj(p)
+
+
 def test_relative_indices_load(tmp_path):
     p = tmp_path / "rel.obj"
     p.write_text("o leaf\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n")

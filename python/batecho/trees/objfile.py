@@ -266,7 +266,10 @@ def load_obj(
     ) = _core.load_obj(p, patterns, per_, up_, s, t)
     for msg in messages:
         warnings.warn(msg, ObjWarning, stacklevel=2)
-    leaves = Leaves(centers, normals, radii) if len(centers) else None
+    try:
+        leaves = Leaves(centers, normals, radii) if len(centers) else None
+    except ValueError as exc:  # (a leaf beyond the bounds of Leaves: the file says where)
+        raise ValueError(f"{p}: {exc}") from None
     return Mesh(
         leaves=leaves,
         bark_vertices=bark_vertices,
