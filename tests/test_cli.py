@@ -371,6 +371,16 @@ def test_missing_obj_file_names_the_key(tmp_path, capsys):
     assert "[scene] path: OBJ file not found" in capsys.readouterr().err
 
 
+def test_an_obj_whose_leaf_faces_are_all_degenerate_is_refused_saying_so(tmp_path, capsys):
+    obj = "o trunk\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no leaf\nf 1 1 2\n"
+    (tmp_path / "flat.obj").write_text(obj)
+    box = 'kind = "leaf_box"\ndensity_per_m3 = 3.0'
+    scene = _write(tmp_path, TINY.replace(box, 'kind = "obj"\npath = "flat.obj"'))
+    assert main(["simulate", str(scene), "-q", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "[scene] path: " in err and "its leaf faces are all degenerate" in err
+
+
 def test_bad_scene_file_gives_no_traceback_in_a_subprocess(tmp_path):
     scene = _write(tmp_path, TINY.replace("radius = 6.2", "radius = [1, 2]"))
     r = subprocess.run(

@@ -518,6 +518,15 @@ def test_load_tree_refuses_a_file_without_leaf_faces_naming_the_file_and_pattern
     assert str(list(DEFAULT_LEAF_PATTERNS)) in str(err.value)
 
 
+def test_load_tree_refusing_a_file_whose_leaf_faces_are_all_degenerate_says_so(tmp_path):
+    path = tmp_path / "flat.obj"
+    path.write_text("o trunk\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no leaf\nf 1 1 2\n")
+    with pytest.warns(batecho.ObjWarning, match="degenerate"):
+        with pytest.raises(ValueError, match="flat.obj: its leaf faces are all degenerate") as err:
+            load_tree(path)
+    assert "leaf_patterns" not in str(err.value)
+
+
 @pytest.mark.parametrize("trunk_pattern", [None, 3, b"trunk"])
 def test_load_tree_refuses_a_trunk_pattern_that_is_not_a_str_naming_it(tmp_path, trunk_pattern):
     path = tmp_path / "leaf.obj"

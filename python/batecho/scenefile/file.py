@@ -215,7 +215,7 @@ class SceneFile:
                 leaves = canonical_leaf_box(rng, **kw)
                 return leaves, leaves, None
             if kind == "obj":
-                from ..trees.objfile import load_obj
+                from ..trees.objfile import load_obj, no_leaves_reason
 
                 p = Path(sc["path"])
                 p = p if p.is_absolute() else self.base_dir / p
@@ -234,7 +234,8 @@ class SceneFile:
                     transform=T,
                 )
                 if mesh.leaves is None:
-                    raise self._err(f"[scene] path: {p} has no leaf faces (see leaf_patterns)")
+                    reason = no_leaves_reason(mesh, sc.get("leaf_patterns"))
+                    raise self._err(f"[scene] path: {p}: {reason}")
                 return mesh, mesh.leaves, None
             from ..forest.ipp import PAPER_WINDOW, draw_tree_positions, sample_ipp
             from ..forest.models import make_forest

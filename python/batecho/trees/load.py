@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .objfile import DEFAULT_LEAF_PATTERNS, ObjWarning, load_obj
+from .objfile import ObjWarning, load_obj, no_leaves_reason
 from .reference_tree import nearest
 from .tree import Tree
 
@@ -43,11 +43,9 @@ def load_tree(
         path, leaf_patterns=leaf_patterns, up=up, per=per, scale=scale, transform=transform
     )
     if mesh.leaves is None:
-        patterns = list(DEFAULT_LEAF_PATTERNS if leaf_patterns is None else leaf_patterns)
         raise ValueError(
-            f"{path}: no leaf faces (no object, group or material name matches leaf_patterns "
-            f"{patterns}), and a tree needs leaves; pass leaf_patterns naming them, or read "
-            "the bark alone with load_obj"
+            f"{path}: {no_leaves_reason(mesh, leaf_patterns)}, and a tree needs leaves; "
+            "read the bark alone with load_obj"
         )
     names = list(mesh.group_names)
     fg = mesh.bark_face_groups

@@ -284,6 +284,21 @@ def load_obj(
     )
 
 
+def no_leaves_reason(mesh: Mesh, leaf_patterns: Sequence[str] | None = None) -> str:
+    """Why a loaded ``mesh`` has no leaves, for an error: no name matches ``leaf_patterns``,
+    or leaf faces there were but all degenerate (the loader's warning says which)."""
+    if any("leaf faces gave a leaf" in w for w in mesh.warnings):
+        return (
+            "its leaf faces are all degenerate (~zero area, repeated vertices or cancelling "
+            "normals; see its ObjWarning)"
+        )
+    patterns = list(DEFAULT_LEAF_PATTERNS if leaf_patterns is None else leaf_patterns)
+    return (
+        f"no leaf faces (no object, group or material name matches leaf_patterns {patterns}; "
+        "pass leaf_patterns naming them)"
+    )
+
+
 def leaf_cards(leaves: Leaves, sides: int = 8) -> np.ndarray:
     """(n, sides, 3) vertices of regular polygons with each disk's centre, normal (counter-
     clockwise about it) and area: circumradius ``r * sqrt(2 pi / (sides sin(2 pi / sides)))``."""
