@@ -371,6 +371,14 @@ def test_missing_obj_file_names_the_key(tmp_path, capsys):
     assert "[scene] path: OBJ file not found" in capsys.readouterr().err
 
 
+def test_an_obj_path_that_is_a_folder_names_the_file_and_key(tmp_path, capsys):
+    (tmp_path / "trees").mkdir()
+    text = TINY.replace('kind = "leaf_box"\ndensity_per_m3 = 3.0', 'kind = "obj"\npath = "trees"')
+    scene = _write(tmp_path, text)
+    assert main(["simulate", str(scene), "-q", "--out", str(tmp_path / "o")]) == 2
+    assert "scene.toml: [scene] path: " in capsys.readouterr().err
+
+
 def test_an_obj_whose_leaf_faces_are_all_degenerate_is_refused_saying_so(tmp_path, capsys):
     obj = "o trunk\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no leaf\nf 1 1 2\n"
     (tmp_path / "flat.obj").write_text(obj)

@@ -221,6 +221,8 @@ class SceneFile:
                 p = p if p.is_absolute() else self.base_dir / p
                 if not p.exists():
                     raise self._err(f"[scene] path: OBJ file not found: {p}")
+                if p.is_dir():
+                    raise self._err(f"[scene] path: {p} is a folder, not an OBJ file")
                 T = None
                 if any(sc.get("offset", (0.0, 0.0, 0.0))):
                     T = np.eye(4)
