@@ -149,3 +149,27 @@ def test_the_interaural_figure_draws_the_heard_pulses_and_marks_the_silent_ones(
         assert [list(ln.get_xdata()) for ln in marks] == [[0.0]]
     assert any("hears nothing" in t.get_text() for t in fig.texts)
     plt.close(fig)
+
+
+@pytest.mark.parametrize("scale", [1e290, 1e-290])
+def test_the_interaural_level_difference_does_not_depend_on_the_echoes_scale(sweep, scale):
+    # (the energies overflowed to inf or underflowed to zero: the level difference was NaN,
+    # as though an ear heard nothing)
+    import dataclasses
+
+    e, _ = sweep
+    scaled = dataclasses.replace(e, impulse=e.impulse * scale)
+    want = interaural_level_difference(e)
+    np.testing.assert_allclose(interaural_level_difference(scaled), want, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("scale", [1e290, 1e-290])
+def test_the_interaural_time_difference_does_not_depend_on_the_echoes_scale(sweep, scale):
+    # (the envelopes' correlation overflowed or underflowed to zero: the time difference was
+    # the edge of the lag window)
+    import dataclasses
+
+    e, _ = sweep
+    scaled = dataclasses.replace(e, impulse=e.impulse * scale)
+    want = interaural_time_difference(e)
+    np.testing.assert_allclose(interaural_time_difference(scaled), want, rtol=0, atol=1e-12)

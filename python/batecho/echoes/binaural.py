@@ -24,6 +24,21 @@ def _pair(echoes: Any, ears: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     return echoes.impulse[:, a], echoes.impulse[:, b]
 
 
+def _peaks(x: np.ndarray) -> np.ndarray:
+    """(p,) each row's largest magnitude (1 where the row is zero): dividing by it keeps
+    squares and products of the row within float64, whatever its scale."""
+    peak = np.max(np.abs(x), axis=-1)
+    return np.where(peak > 0, peak, 1.0)
+
+
+def _level_db(x: np.ndarray) -> np.ndarray:
+    """(p,) ``10 log10(sum x^2)`` of each row (dB), computed on the row over its peak so that
+    neither overflows nor underflows; -inf where the row is zero."""
+    peak = _peaks(x)
+    with np.errstate(divide="ignore"):
+        return 20.0 * np.log10(peak) + 10.0 * np.log10(np.sum((x / peak[:, None]) ** 2, axis=-1))
+
+
 def interaural_level_difference(
     echoes: Any, ears: tuple[int, int] = (0, 1), max_range_m: float | None = None
 ) -> np.ndarray:
@@ -32,11 +47,10 @@ def interaural_level_difference(
     or out to ``max_range_m``; NaN where either ear hears nothing."""
     a, b = _pair(echoes, ears)
     keep = samples_within(echoes, max_range_m)
-    ea = np.sum(a[:, keep] ** 2, axis=-1)
-    eb = np.sum(b[:, keep] ** 2, axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = 10.0 * np.log10(ea / eb)
-    return np.where((ea > 0) & (eb > 0), out, np.nan)
+    la, lb = _level_db(a[:, keep]), _level_db(b[:, keep])
+    with np.errstate(invalid="ignore"):  # (-inf - -inf where neither ear hears)
+        out = la - lb
+    return np.where(np.isfinite(la) & np.isfinite(lb), out, np.nan)
 
 
 def interaural_time_difference(
@@ -61,8 +75,11 @@ def interaural_time_difference(
         d = float(np.linalg.norm(np.subtract(rxs[ears[0]].offset_m, rxs[ears[1]].offset_m)))
         max_lag_s = d / echoes.sonar.sound_speed + 4.0 / fs
     lag = max(1, int(np.ceil(float(max_lag_s) * fs)))
-    env_a = np.abs(hilbert(a[:, keep], axis=-1))
-    env_b = np.abs(hilbert(b[:, keep], axis=-1))
+    # (each ear's record over its peak: the lag of the largest correlation is the same, and the
+    # correlation neither overflows nor underflows whatever the echoes' scale)
+    a, b = a[:, keep], b[:, keep]
+    env_a = np.abs(hilbert(a / _peaks(a)[:, None], axis=-1))
+    env_b = np.abs(hilbert(b / _peaks(b)[:, None], axis=-1))
     from scipy.signal import correlate
 
     out = np.full(len(a), np.nan)
