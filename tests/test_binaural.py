@@ -173,3 +173,19 @@ def test_the_interaural_time_difference_does_not_depend_on_the_echoes_scale(swee
     scaled = dataclasses.replace(e, impulse=e.impulse * scale)
     want = interaural_time_difference(e)
     np.testing.assert_allclose(interaural_time_difference(scaled), want, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("max_lag_s", [-1e-4, 0.0, math.nan, math.inf])
+def test_a_max_lag_that_is_not_positive_and_finite_is_refused_naming_it(sweep, max_lag_s):
+    # (NaN and inf raised NumPy's "cannot convert float NaN to integer"; a negative lag was
+    # taken as one sample)
+    with pytest.raises(ValueError, match="max_lag_s"):
+        interaural_time_difference(sweep[0], max_lag_s=max_lag_s)
+
+
+@pytest.mark.parametrize("ears", [(1.5, 0), (True, 0), (0,), "01", None])
+@pytest.mark.parametrize("cue", [interaural_level_difference, interaural_time_difference])
+def test_ears_that_are_not_two_receiver_indices_are_refused_naming_them(sweep, cue, ears):
+    # (NumPy's IndexError, or an unpacking error, named neither ears nor what they must be)
+    with pytest.raises(TypeError, match="ears must be two int receiver indices"):
+        cue(sweep[0], ears=ears)

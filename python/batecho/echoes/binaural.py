@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import positive_scalar
 from .simulate import samples_within
 
 __all__ = ["interaural_level_difference", "interaural_time_difference"]
@@ -17,8 +18,13 @@ def _pair(echoes: Any, ears: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(
             f"interaural differences need two receivers (Sonar.binaural), got {echoes.n_receivers}"
         )
-    a, b = ears
+    try:
+        a, b = ears
+    except (TypeError, ValueError):
+        a = b = None
     for j in (a, b):
+        if isinstance(j, bool) or not isinstance(j, (int, np.integer)):
+            raise TypeError(f"ears must be two int receiver indices (a, b), got {ears!r}")
         if not 0 <= j < echoes.n_receivers:
             raise ValueError(f"receiver {j} out of range: the echoes have {echoes.n_receivers}")
     return echoes.impulse[:, a], echoes.impulse[:, b]
@@ -74,7 +80,8 @@ def interaural_time_difference(
         assert rxs is not None
         d = float(np.linalg.norm(np.subtract(rxs[ears[0]].offset_m, rxs[ears[1]].offset_m)))
         max_lag_s = d / echoes.sonar.sound_speed + 4.0 / fs
-    lag = max(1, int(np.ceil(float(max_lag_s) * fs)))
+    max_lag_s = positive_scalar(max_lag_s, "max_lag_s", strict=True, unit="s")
+    lag = max(1, int(np.ceil(max_lag_s * fs)))
     # (each ear's record over its peak: the lag of the largest correlation is the same, and the
     # correlation neither overflows nor underflows whatever the echoes' scale)
     a, b = a[:, keep], b[:, keep]
