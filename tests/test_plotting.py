@@ -153,6 +153,20 @@ def test_plot_spectrogram_has_no_power_at_0_hz(echoes):
     plt.close(fig)
 
 
+@pytest.mark.parametrize("scale", [1e290, 1e-290])
+def test_plot_spectrogram_does_not_depend_on_the_echoes_scale(echoes, scale):
+    """The power overflowed to inf or underflowed to zero: the figure was blank."""
+    import dataclasses
+
+    scaled = dataclasses.replace(echoes, impulse=echoes.impulse * scale)
+    want, got = (
+        np.asarray(plot_spectrogram(e, 1).axes[0].collections[0].get_array())
+        for e in (echoes, scaled)
+    )
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6)  # dB
+    plt.close("all")
+
+
 def test_plot_echo_image_uses_the_given_x(echoes, tmp_path):
     x = np.linspace(10.0, 70.0, len(echoes))
     fig = plot_echo_image(echoes, x=x, xlabel="angle (deg)", max_range_m=8.0)

@@ -421,8 +421,12 @@ def plot_spectrogram(
         fig, ax = plt.subplots(figsize=(7, 3.5), constrained_layout=True)
     f_lo, f_hi = echoes.sonar.band_hz
     pad = 0.25 * (f_hi - f_lo) if margin_hz is None else float(margin_hz)
+    # (over its peak: the dB re max are the same, and the power neither overflows nor
+    # underflows whatever the echoes' scale)
+    y = echoes.impulse[index]
+    peak = float(np.max(np.abs(y)))
     f, t, S = spectrogram(
-        echoes.impulse[index],
+        y / peak if peak > 0 else y,
         fs=echoes.sonar.fs,
         nperseg=nperseg,
         noverlap=nperseg * 3 // 4,
