@@ -150,12 +150,33 @@ def test_a_spreading_that_is_not_true_or_false_is_refused(spreading):
         dict(max_range_m="5"),
         dict(record_tail_s="0.001"),
         dict(min_ka="0.5"),
+        dict(beamwidth_deg="30"),
+        dict(beamwidth_deg=True),
     ],
     ids=lambda kw: next(iter(kw)),
 )
 def test_sonar_numbers_given_as_text_or_flags_are_refused_naming_them(kw):
     with pytest.raises(TypeError, match=next(iter(kw))):
         Sonar(**kw)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(beamwidth_deg="30"),
+        dict(beamwidth_deg=True),
+        dict(sigma_deg=10.0, rotation_deg="15"),
+        dict(sigma_deg=10.0, center_deg=("5", "0")),
+        dict(sigma_deg=10.0, amplitude="2"),
+        dict(sigma_deg=10.0, amplitude=True),
+    ],
+    ids=lambda kw: list(kw)[-1] + "=" + repr(kw[list(kw)[-1]]),
+)
+def test_beam_numbers_given_as_text_or_flags_are_refused_naming_them(kw):
+    # (text was kept and failed in math.radians naming nothing, "must be real number, not
+    # str", or was kept as text: Beam(amplitude="2"); True was a 1 degree beam)
+    with pytest.raises(TypeError, match=list(kw)[-1]):
+        Beam(**kw)
 
 
 def test_an_atmosphere_given_text_is_refused_naming_it():

@@ -60,7 +60,7 @@ class Beam:
         if self.beamwidth_deg is None and self.sigma_deg is None:
             raise ValueError("a Beam needs beamwidth_deg or sigma_deg")
         if self.beamwidth_deg is not None:
-            bw = finite_scalar(self.beamwidth_deg, "beamwidth_deg")
+            bw = finite_scalar(self.beamwidth_deg, "beamwidth_deg", strict=True)
             if not 0.0 < bw < 180.0:
                 raise ValueError(f"beamwidth_deg must be in (0, 180), got {bw}")
         else:
@@ -76,9 +76,9 @@ class Beam:
                 f"{given} = {getattr(self, given)!r} gives a Gaussian width of {narrow:.3g} rad, "
                 f"below the narrowest beam, {MIN_SIGMA_RAD:g} rad (its exponent overflows)"
             )
-        finite_scalar(self.rotation_deg, "rotation_deg")
+        finite_scalar(self.rotation_deg, "rotation_deg", strict=True)
         try:
-            az0, el0 = (finite_scalar(v, "center_deg") for v in self.center_deg)
+            az0, el0 = (finite_scalar(v, "center_deg", strict=True) for v in self.center_deg)
         except (TypeError, ValueError) as exc:
             if "center_deg" in str(exc):
                 raise
@@ -89,7 +89,7 @@ class Beam:
             raise ValueError(
                 f"center_deg must have |az| <= 180 and |el| <= 90, got {self.center_deg}"
             )
-        positive_scalar(self.amplitude, "amplitude")
+        positive_scalar(self.amplitude, "amplitude", strict=True)
 
     @property
     def sigmas_rad(self) -> tuple[float, float]:
