@@ -84,3 +84,18 @@ def test_grid_quantities_of_an_auto_sonar_point_to_the_echoes():
         _ = Sonar(n_samples="auto").freqs
     with pytest.raises(ValueError, match="'auto'"):
         Sonar(n_samples="automatic")
+
+
+@pytest.mark.parametrize("range_m", [np.nan, -5.0, np.inf, "5", True])
+def test_a_record_length_for_a_range_that_is_not_a_distance_is_refused_naming_it(range_m):
+    # (NaN was "a record of nan samples, more than the longest record", a negative range the
+    # shortest record, and text was parsed)
+    with pytest.raises((TypeError, ValueError), match=r"\brange_m"):
+        Sonar().record_length_for(range_m)
+
+
+@pytest.mark.parametrize("n", [np.nan, 1.7e5, "24000", True])
+def test_resolve_takes_an_integer_record_length_naming_it(n):
+    # (NaN raised "cannot convert float NaN to integer", and 1.7e5 was truncated to an int)
+    with pytest.raises(TypeError, match="n_samples"):
+        Sonar(n_samples="auto").resolve(n)

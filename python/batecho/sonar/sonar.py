@@ -365,11 +365,12 @@ class Sonar(MadeAgainOnLoading):
         """The record (samples, a 2-3-5-smooth even number) that holds echoes out to
         ``range_m`` plus ``record_tail_s``; ValueError when that is longer than
         :data:`MAX_N_SAMPLES`."""
-        need = self.fs * (2.0 * float(range_m) / self.sound_speed + self.record_tail_s)
+        range_m = positive_scalar(range_m, "range_m", allow_zero=True, strict=True, unit="m")
+        need = self.fs * (2.0 * range_m / self.sound_speed + self.record_tail_s)
         if not need <= MAX_N_SAMPLES:
             raise ValueError(
                 f"n_samples='auto' needs a record of {need:.3g} samples to hold echoes out to "
-                f"{float(range_m):.4g} m (fs = {self.fs:g} Hz, sound_speed = "
+                f"{range_m:.4g} m (fs = {self.fs:g} Hz, sound_speed = "
                 f"{self.sound_speed:g} m/s, record_tail_s = {self.record_tail_s:g} s), more than "
                 f"the longest record, 2^31 samples; bound the reach with max_range_m (or a "
                 "higher threshold_db), shorten record_tail_s, or give n_samples"
@@ -389,7 +390,7 @@ class Sonar(MadeAgainOnLoading):
         """This sonar with a fixed record length. The same length gives the same (immutable)
         sonar again, so that its FFT and fast-method plans, built on first use, serve every
         later call instead of being rebuilt for each ``n_samples="auto"`` simulation."""
-        n = int(n_samples)
+        n = integer(n_samples, "n_samples", minimum=2, wrong_type=TypeError)
         kept = self._resolved.get(n)
         if kept is None:
             kept = self.replace(n_samples=n)
