@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from _helpers import frame_points
 from hypothesis import given
 from hypothesis import strategies as st
@@ -156,3 +157,20 @@ def test_lobe_members_refuses_more_than_one_pose():
         assert "one pose" in str(e)
     else:
         raise AssertionError("expected ValueError")
+
+
+def test_a_receiver_index_too_large_for_an_int_is_refused_as_out_of_range():
+    # (the core's argument conversion raised "OverflowError: int too big to convert")
+    leaves = Leaves([[2.0, 0.0, 0.0]], [[1.0, 0, 0]], [0.02])
+    pose = Poses([0.0, 0, 0], [1.0, 0, 0])
+    with pytest.raises(ValueError, match="receiver 1180591620717411303424 out of range"):
+        lobe_members(leaves, Sonar.binaural(0.02, 30.0), pose, receiver=2**70)
+
+
+@pytest.mark.parametrize("search", [None, 3, "BVH"])
+def test_a_search_that_is_not_one_of_the_two_is_refused_naming_it(search):
+    # (None and 3 raised the core's "'None' is not an instance of 'str'")
+    leaves = Leaves([[2.0, 0.0, 0.0]], [[1.0, 0, 0]], [0.02])
+    pose = Poses([0.0, 0, 0], [1.0, 0, 0])
+    with pytest.raises(ValueError, match="search must be 'bvh' or 'brute_force'"):
+        lobe_members(leaves, Sonar(), pose, search=search)

@@ -334,6 +334,12 @@ def lobe_members(
         raise TypeError(f"receiver must be an int index or None, got {receiver!r}")
     if receiver is not None and receiver < 0:
         raise ValueError(f"receiver must be >= 0, got {receiver}")
+    if receiver is not None and receiver >= sonar.n_receivers:
+        raise ValueError(
+            f"receiver {receiver} out of range: the sonar has {sonar.n_receivers} receivers"
+        )
+    if search not in ("bvh", "brute_force"):
+        raise ValueError(f"search must be 'bvh' or 'brute_force', got {search!r}")
     sc = as_scene(scene)
     return _core.lobe_members(
         sc._core,
