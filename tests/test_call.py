@@ -220,6 +220,14 @@ def test_the_wav_file_of_the_received_call_is_seeded(two_ears, tmp_path):
         two_ears.to_wav(tmp_path / "c.wav", receiver=2)
 
 
+@pytest.mark.parametrize("kw", [dict(noise_rms=1e-7), dict(rng=1)], ids=lambda kw: next(iter(kw)))
+def test_noise_for_a_wav_file_without_a_call_is_refused(two_ears, kw, tmp_path):
+    # (the noise and its seed were ignored: the file held the noiseless impulse responses)
+    with pytest.raises(ValueError, match="pass call= too"):
+        two_ears.to_wav(tmp_path / "n.wav", **kw)
+    assert not (tmp_path / "n.wav").exists()
+
+
 def test_the_mat_file_round_trips(two_ears, tmp_path):
     from scipy.io import loadmat
 

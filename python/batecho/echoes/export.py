@@ -242,6 +242,8 @@ def to_wav(
     Without ``call`` the impulse responses are written; with it, what the receivers record
     (:meth:`Echoes.received`, with ``noise_rms`` and ``rng``).
     """
+    if call is None and (noise_rms != 0.0 or rng is not None):
+        raise ValueError("noise_rms and rng are the noise of the received call: pass call= too")
     x = echoes.received(call, noise_rms, rng) if call is not None else echoes.impulse
     x = x if echoes.n_receivers else x[:, None]
     if receiver is not None:
