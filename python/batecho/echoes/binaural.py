@@ -18,8 +18,9 @@ def _pair(echoes: Any, ears: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(
             f"interaural differences need two receivers (Sonar.binaural), got {echoes.n_receivers}"
         )
+    pair: Any = ears
     try:
-        a, b = ears
+        a, b = pair
     except (TypeError, ValueError):
         a = b = None
     for j in (a, b):
