@@ -4,6 +4,8 @@ address-space limit (a regression would abort or hang the child, not the test ru
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from _isolated import call_in_child
 
@@ -166,6 +168,16 @@ def test_a_pose_whose_branches_cut_into_too_many_pieces_is_refused_naming_the_pi
         "branch_piece_scale",
         "pieces",
     )
+
+
+def test_an_absurd_branch_piece_scale_is_refused_in_a_message_of_few_digits():
+    message = refused(
+        "wood = batecho.Branches([[3.0, 0, -1]], [[3.0, 0, 1]], [0.05])\n"
+        "simulate(batecho.Scene(None, branches=wood), Sonar(branch_piece_scale=1e-300), POSE)",
+        "MemoryError",
+        "branch_piece_scale = 1.000e-300",
+    )
+    assert not re.search(r"\d{20}", message), message
 
 
 def test_branches_sharing_one_end_point_by_the_thousand_are_refused_before_they_are_joined():

@@ -182,16 +182,27 @@ fn segment_pieces(
 /// term and a shading target.
 pub(crate) fn check_pieces(bound: f64, sonar: &Sonar, pose_index: usize) -> Result<()> {
     let threads = rayon::current_num_threads();
+    // (numbers far from 1 in a few digits: an absurd scale would print hundreds)
+    let short = |x: f64| {
+        if x == 0.0 || (1e-4..1e12).contains(&x.abs()) {
+            format!("{x}")
+        } else {
+            format!("{x:.3e}")
+        }
+    };
     budget::check(
         bound * budget::BYTES_PER_PIECE * threads as f64,
         || {
             format!(
-                "pose {pose_index}: its branches cut into up to {bound:.0} pieces \
+                "pose {pose_index}: its branches cut into up to {} pieces \
                  (branch_piece_scale = {}, min_range_m = {}) on each of {threads} threads",
-                sonar.params.branch_piece_scale, sonar.params.min_range,
+                short(bound.round()),
+                short(sonar.params.branch_piece_scale),
+                short(sonar.params.min_range),
             )
         },
-        "raise branch_piece_scale or min_range_m, or leave the nearest branches out",
+        "raise branch_piece_scale or min_range_m (pieces are as short as a near branch or a \
+         narrow beam needs), or leave the nearest branches out",
     )
 }
 
