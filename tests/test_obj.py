@@ -390,10 +390,18 @@ def test_malformed_lines_name_file_and_line(tmp_path, text, match):
         load_obj(p)
 
 
-def test_a_leaf_too_far_out_is_refused_naming_the_file(tmp_path):
+def test_a_leaf_too_far_out_is_refused_naming_the_file_and_line(tmp_path):
     p = tmp_path / "far.obj"
     p.write_text("o leaf\nv 0 0 0\nv 1e16 0 0\nv 0 1e16 0\nf 1 2 3\n")
-    with pytest.raises(ValueError, match=r"far\.obj: leaf 0 has a centre coordinate beyond"):
+    with pytest.raises(ValueError, match=r"far\.obj.*line 5.*beyond 1e15 m"):
+        load_obj(p)
+
+
+def test_a_bark_face_too_far_out_is_refused_naming_the_file_and_line(tmp_path):
+    # (a vertex at 1e300 made the face's area overflow: it was skipped as "~zero area")
+    p = tmp_path / "far.obj"
+    p.write_text("o trunk\nv 0 0 0\nv 1e300 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(ValueError, match=r"far\.obj.*line 5.*beyond 1e15 m"):
         load_obj(p)
 
 

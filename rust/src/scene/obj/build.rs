@@ -15,6 +15,7 @@ use crate::scene::obj::scan::obj_err;
 use crate::scene::obj::scan::positions_via_tobj;
 use crate::scene::obj::scan::prescan;
 use crate::scene::obj::scan::{Element, Scan};
+use crate::scene::MAX_COORDINATE;
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 use std::f64::consts::PI;
@@ -218,6 +219,20 @@ fn sort_faces(
                 format!(
                     "a vertex of this face is not finite after scale/transform: {bad:?} (scale \
                      or transform too large?)"
+                ),
+            );
+        }
+        // (as leaves and branches are bounded: beyond that, a face's area may overflow)
+        if let Some(bad) = pts
+            .iter()
+            .find(|p| p.iter().any(|x| x.abs() > MAX_COORDINATE))
+        {
+            return obj_err(
+                file,
+                f.line,
+                format!(
+                    "a vertex of this face lies beyond {MAX_COORDINATE:e} m after \
+                     scale/transform: {bad:?} (scale or transform too large?)"
                 ),
             );
         }
