@@ -320,6 +320,12 @@ def test_impossible_parameters_are_refused_by_name(kwargs, word):
         EchoFlightEnv(**kwargs)
 
 
+def test_a_time_step_longer_than_the_motor_time_constant_is_refused_before_any_step():
+    # (QuadrotorSim refuses it; the environment took it and failed at the first step)
+    with pytest.raises(ValueError, match="dt.*motor time constant"):
+        EchoFlightEnv(**SMALL, dt=0.05)
+
+
 def test_a_quadrotor_that_is_not_one_is_refused_by_name():
     with pytest.raises(TypeError, match="quadrotor"):
         EchoFlightEnv(quadrotor="crazyflie")

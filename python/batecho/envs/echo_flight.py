@@ -250,6 +250,12 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise TypeError(
                 f"quadrotor must be None or a batecho.Quadrotor, got {type(quadrotor).__name__}"
             )
+        quadrotor = Quadrotor.crazyflie() if quadrotor is None else quadrotor
+        if dt > quadrotor.motor_time_constant:  # (as QuadrotorSim.step refuses it)
+            raise ValueError(
+                f"dt={dt} s exceeds the quadrotor's motor time constant "
+                f"{quadrotor.motor_time_constant} s; RK4 would be inaccurate"
+            )
         variants = integer(variants, "variants", 1)
         method, tol = method_and_tol(method, tol)
         if int(n_range_bins) != n_range_bins or n_range_bins < 1:
@@ -302,7 +308,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.sonar = sonar
         self.branches, self.shading = branches, shading
         self.ear_separation_m, self.ear_yaw_deg = float(ear_separation_m), float(ear_yaw_deg)
-        self.quadrotor = Quadrotor.crazyflie() if quadrotor is None else quadrotor
+        self.quadrotor = quadrotor
         self.tree_params = dict(tree_params or {})
         self.variants = int(variants)
         self.method, self.tol = method, float(tol)
