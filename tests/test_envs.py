@@ -326,6 +326,13 @@ def test_a_time_step_longer_than_the_motor_time_constant_is_refused_before_any_s
         EchoFlightEnv(**SMALL, dt=0.05)
 
 
+@pytest.mark.parametrize("rate", [1e-300, 1e-310])
+def test_a_pulse_interval_of_too_many_rk4_steps_is_refused_by_name_when_made(rate):
+    # (it was taken, and its first step asked for ~1e303 RK4 steps or raised OverflowError)
+    with pytest.raises(MemoryError, match="pulse_rate_hz"):
+        EchoFlightEnv(**SMALL, pulse_rate_hz=rate)
+
+
 def test_a_quadrotor_that_is_not_one_is_refused_by_name():
     with pytest.raises(TypeError, match="quadrotor"):
         EchoFlightEnv(quadrotor="crazyflie")

@@ -54,12 +54,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from .._resources import check_memory
 from .._validate import integer
 from ..echoes.envelope import envelope_stride
 from ..echoes.simulate import method_and_tol
 from ..flight.mount import SonarMount
 from ..flight.poses import Poses
-from ..flight.sim import QuadrotorSim
+from ..flight.sim import BYTES_PER_PATH_POINT, QuadrotorSim
 from ..flight.trajectories import Hover
 from ..flight.vehicle import Quadrotor
 from ..forest.forest import Forest
@@ -265,7 +266,14 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise ValueError(f"floor_db must be a finite float32 number (dB), got {floor_db!r}")
         if not floor_db < ceiling_db:
             raise ValueError(f"floor_db ({floor_db}) must be below ceiling_db ({ceiling_db})")
-        n_sub = round(1.0 / (pulse_rate_hz * dt))
+        steps = 1.0 / (pulse_rate_hz * dt)
+        check_memory(
+            steps * BYTES_PER_PATH_POINT,
+            f"a pulse interval 1/pulse_rate_hz = {1 / pulse_rate_hz:g} s of RK4 steps "
+            f"dt = {dt:g} s ({steps:.3g} of them, the path of a step)",
+            "use a higher pulse_rate_hz or a larger dt",
+        )
+        n_sub = round(steps)
         if n_sub < 1 or abs(n_sub * dt * pulse_rate_hz - 1.0) > 1e-9:
             raise ValueError(
                 f"the pulse interval 1/pulse_rate_hz = {1 / pulse_rate_hz:g} s must be a whole "
