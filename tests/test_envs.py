@@ -333,6 +333,12 @@ def test_a_pulse_interval_of_too_many_rk4_steps_is_refused_by_name_when_made(rat
         EchoFlightEnv(**SMALL, pulse_rate_hz=rate)
 
 
+def test_numpy_numbers_are_taken_as_the_python_numbers_they_equal():
+    # (np.float32(1.5) was refused as "max_speed_mps must be a finite number > 0")
+    env = EchoFlightEnv(**SMALL, max_speed_mps=np.float32(1.5), effort_weight=np.int64(0))
+    assert env.scales[0] == 1.5 and env.effort_weight == 0.0
+
+
 def test_a_quadrotor_that_is_not_one_is_refused_by_name():
     with pytest.raises(TypeError, match="quadrotor"):
         EchoFlightEnv(quadrotor="crazyflie")

@@ -48,6 +48,7 @@ end raises RuntimeError until :meth:`~EchoFlightEnv.reset`.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import gymnasium as gym
@@ -141,6 +142,11 @@ def _euler_zyx(R: np.ndarray) -> np.ndarray:
     return np.array([roll, pitch, _yaw(R)])
 
 
+def _is_real(x: Any) -> bool:
+    """Whether ``x`` is a real number, NumPy's included."""
+    return isinstance(x, numbers.Real)
+
+
 def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -213,20 +219,20 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             ("max_yaw_rate", max_yaw_rate),
             ("dt", dt),
         ):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            if not (_is_real(value) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         for name, value in (
             ("effort_weight", effort_weight),
             ("collision_penalty", collision_penalty),
             ("success_reward", success_reward),
         ):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            if not (_is_real(value) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if not (math.isfinite(density) and density >= 0):
             raise ValueError(f"density must be a finite number >= 0 (trees/m^2), got {density!r}")
         if not 0 <= trees_from_m < length_m / 2:
             raise ValueError(f"trees_from_m must be in [0, length_m/2), got {trees_from_m!r}")
-        if not (isinstance(ceiling_m, (int, float)) and ceiling_m > altitude_m):
+        if not (_is_real(ceiling_m) and ceiling_m > altitude_m):
             raise ValueError(f"ceiling_m ({ceiling_m}) must be above altitude_m ({altitude_m})")
         if not math.isfinite(ceiling_m):
             raise ValueError(f"ceiling_m must be finite, got {ceiling_m!r}")
