@@ -363,6 +363,20 @@ def test_a_look_at_line_keeps_its_heading_on_arrival_at_the_target():
     np.testing.assert_allclose(traj.yaw(t), math.pi / 4, atol=1e-12)
 
 
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: Line([-1e300, 0.0, 0.0], [1e300, 0.0, 0.0]),
+        lambda: Waypoints([[0.0, 0.0, 0.0], [1e300, 0.0, 0.0], [0.0, 1e300, 0.0]]),
+    ],
+    ids=["line", "waypoints"],
+)
+def test_points_whose_distance_overflows_float64_are_refused_by_name(make):
+    # (a Line called itself vertical, Waypoints raised scipy's "must not contain infs")
+    with pytest.raises(ValueError, match="too far apart"):
+        make()
+
+
 def test_waypoints_pass_through_the_points_at_peak_speed():
     traj = TIMED["waypoints"]
     np.testing.assert_allclose(traj.position(traj.knot_times), traj.points, atol=1e-9)

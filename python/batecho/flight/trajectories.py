@@ -349,7 +349,13 @@ class Line(Trajectory):
         self.start = point(start, "start")
         self.end = point(end, "end")
         self.speed = positive_scalar(speed, "speed")
-        self.length = float(np.linalg.norm(self.end - self.start))
+        with np.errstate(over="ignore"):
+            self.length = float(np.linalg.norm(self.end - self.start))
+        if not math.isfinite(self.length):
+            raise ValueError(
+                f"start {self.start} and end {self.end} are too far apart: their distance "
+                "overflows float64"
+            )
         if not self.length > 0:
             raise ValueError("start and end coincide; use Hover for a stationary reference")
         self.direction = (self.end - self.start) / self.length
@@ -449,7 +455,13 @@ class Waypoints(Trajectory):
                 raise ValueError("a closed Waypoints path needs at least 3 points")
             if not np.array_equal(pts[0], pts[-1]):  # a last point merely near is a waypoint
                 pts = np.vstack([pts, pts[:1]])
-        chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        with np.errstate(over="ignore"):
+            chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        if not np.isfinite(chords).all():
+            i = int(np.argmax(~np.isfinite(chords)))
+            raise ValueError(
+                f"waypoints {i} and {i + 1} are too far apart: their distance overflows float64"
+            )
         if not (chords > 0).all():
             i = int(np.argmax(~(chords > 0)))
             raise ValueError(f"waypoints {i} and {i + 1} coincide")
