@@ -377,6 +377,16 @@ def test_points_whose_distance_overflows_float64_are_refused_by_name(make):
         make()
 
 
+@pytest.mark.parametrize(
+    "radius, speed", [(6.2, 1e300), (1e300, 1e-300)], ids=["overflows", "underflows"]
+)
+def test_a_circle_whose_angular_rate_cannot_be_flown_in_float64_is_refused_by_name(radius, speed):
+    # (speed/radius underflowing raised ZeroDivisionError; its snap overflowing, OverflowError
+    # in fly)
+    with pytest.raises(ValueError, match="speed / radius"):
+        Circle((0.0, 0.0), radius=radius, speed=speed)
+
+
 def test_waypoints_pass_through_the_points_at_peak_speed():
     traj = TIMED["waypoints"]
     np.testing.assert_allclose(traj.position(traj.knot_times), traj.points, atol=1e-9)

@@ -242,7 +242,16 @@ class Circle(Trajectory):
         self.altitude = finite_scalar(altitude, "altitude")
         self.speed = positive_scalar(speed, "speed")
         self.theta0 = math.radians(finite_scalar(start_angle_deg, "start_angle_deg"))
-        self.omega = (-1.0 if clockwise else 1.0) * self.speed / self.radius
+        w = self.speed / self.radius
+        with np.errstate(over="ignore", divide="ignore"):
+            lap, snap = 2.0 * np.pi / np.float64(w), self.radius * np.float64(w) ** 4
+        if not (np.isfinite(lap) and np.isfinite(snap)):
+            raise ValueError(
+                f"the angular rate speed / radius = {self.speed:g} m/s / {self.radius:g} m "
+                f"= {w:.3g} rad/s is too small or large for float64 (a lap's duration or the "
+                "path's snap overflows); use an ordinary speed and radius"
+            )
+        self.omega = (-1.0 if clockwise else 1.0) * w
         self.duration = 2.0 * math.pi / abs(self.omega)
         self._set_heading(heading, target, yaw_deg, np.array([*self.center, self.altitude]))
 
