@@ -250,6 +250,15 @@ def test_bad_commands_raise_value_error_naming_the_problem(call, match):
     np.testing.assert_array_equal(sim.state.vectors, before)
 
 
+def test_a_step_dt_beyond_the_motor_time_constant_is_named_in_a_few_digits():
+    # (the core's message wrote dt = 1e300 out in 301 digits)
+    quad = Quadrotor.crazyflie()
+    sim = QuadrotorSim(quad, quad.initial_state(Hover((0, 0, 1))))
+    with pytest.raises(ValueError, match=r"dt=1e\+300 s exceeds the motor time constant") as e:
+        sim.step([0.0, 0.0, 0.0], dt=1e300)
+    assert len(str(e.value)) < 200
+
+
 def test_a_step_whose_path_cannot_fit_in_memory_is_refused_before_it_starts():
     quad = Quadrotor.crazyflie()
     sim = QuadrotorSim(quad, quad.initial_state(Hover((0, 0, 1))))

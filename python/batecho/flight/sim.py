@@ -175,6 +175,11 @@ class QuadrotorSim:
         if w.shape != (n, 3):
             raise ValueError(f"wind must have shape (3,) or ({n}, 3), got {w.shape}")
         h = positive_scalar(dt, "dt")
+        tau = self.quadrotor.motor_time_constant
+        if h > tau:  # (as the core refuses it, with dt in a few digits)
+            raise ValueError(
+                f"dt={h:g} s exceeds the motor time constant {tau:g} s; RK4 would be inaccurate"
+            )
         if isinstance(n_steps, bool) or not float(n_steps).is_integer() or n_steps < 1:
             raise ValueError(f"n_steps must be an integer >= 1, got {n_steps}")
         check_memory(
