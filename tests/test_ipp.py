@@ -418,3 +418,30 @@ def test_mixture_integral_agrees_with_dblquad():
     ref, _ = integrate.dblquad(lambda y, x: float(f(x, y)), -1.0, 2.0, 0.0, 5.0)
     assert f.integral((-1.0, 2.0, 0.0, 5.0)) == pytest.approx(ref, rel=1e-8)
     assert f.integral() == pytest.approx(0.3 * 2 * np.pi * 0.7 * 1.5)
+
+
+@pytest.fixture
+def one_mib_limit():
+    import batecho
+
+    before = batecho.set_memory_limit(2**20)
+    yield
+    batecho.set_memory_limit(before)
+
+
+@pytest.mark.usefixtures("one_mib_limit")
+def test_integrate_intensity_refuses_a_grid_too_large_for_memory_naming_n():
+    with pytest.raises(MemoryError, match="n = 400"):
+        integrate_intensity(exp_intensity, EXP_RECT, n=400)
+
+
+@pytest.mark.usefixtures("one_mib_limit")
+def test_integrate_intensity_refuses_a_boundary_refinement_too_large_for_memory_naming_it():
+    with pytest.raises(MemoryError, match="refine = 100000"):
+        integrate_intensity(exp_intensity, L_POLYGON, n=16, refine=100_000)
+
+
+@pytest.mark.usefixtures("one_mib_limit")
+def test_estimate_lambda_max_refuses_a_grid_too_large_for_memory_naming_n():
+    with pytest.raises(MemoryError, match="n = 400"):
+        estimate_lambda_max(exp_intensity, EXP_RECT, n=400)

@@ -23,6 +23,7 @@ import numpy as np
 
 from .._pickle import ReadOnlyOnLoading
 from .._random import generator
+from .._resources import check_memory
 from .._validate import finite, integer, positive_scalar, real_array
 
 __all__ = [
@@ -47,6 +48,10 @@ DEFAULT_SAFETY_MARGIN = 1.1
 DEFAULT_GRID = 256
 #: Refuse to draw more candidate points than this on average (memory guard, ~80 MB per 1e7).
 MAX_CANDIDATES = 50_000_000
+#: Memory per grid point or boundary sample of :func:`integrate_intensity` and
+#: :func:`estimate_lambda_max` (bytes): the coordinates, their stacked copies, the membership
+#: masks and the intensity's value (a function's own temporaries come on top).
+BYTES_PER_GRID_POINT = 64.0
 #: The paper's 20 m x 20 m field ``(xmin, xmax, ymin, ymax)``, m.
 PAPER_WINDOW: tuple[float, float, float, float] = (0.0, 20.0, 0.0, 20.0)
 
@@ -454,7 +459,9 @@ def integrate_intensity(
     polygon, the cells the boundary crosses (their corners or midpoint disagree on membership)
     are instead sampled at ``refine`` points of a Fibonacci lattice, those in the window
     counted; this shrinks the O(h) boundary error to about h / refine along axis-parallel
-    edges and h / sqrt(refine) along others (relative error ~1e-5 with the defaults).
+    edges and h / sqrt(refine) along others (relative error ~1e-5 with the defaults). A grid
+    or refinement too large for :func:`batecho.memory_limit` raises MemoryError naming ``n``
+    or ``refine`` before it is built.
     """
     w = _as_window(window)
     if w.is_rectangle and isinstance(intensity, (RasterIntensity, SquaredExponentialMixture)):
@@ -462,6 +469,11 @@ def integrate_intensity(
     for name, v in (("n", n), ("refine", refine)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{name} must be a positive integer; got {v!r}")
+    check_memory(
+        (n + 1.0) ** 2 * BYTES_PER_GRID_POINT,
+        f"integrate_intensity on an n x n grid of n = {n}",
+        "use a smaller n",
+    )
     xmin, xmax, ymin, ymax = w.bbox
     hx, hy = (xmax - xmin) / n, (ymax - ymin) / n
     gx, gy = np.meshgrid(xmin + hx * (np.arange(n) + 0.5), ymin + hy * (np.arange(n) + 0.5))
@@ -475,6 +487,12 @@ def integrate_intensity(
     cut = ~interior & ((corners > 0) | mid_in)
     total = float(_evaluate(intensity, gx[interior], gy[interior]).sum()) * hx * hy
     iy, ix = np.nonzero(cut)
+    check_memory(
+        float(iy.size) * refine * BYTES_PER_GRID_POINT,
+        f"integrate_intensity's refine = {refine} samples in each of the {iy.size} cells the "
+        "window's boundary crosses",
+        "use a smaller refine (or n)",
+    )
     if iy.size:
         ox, oy = _lattice(int(refine))
         sx = (xmin + hx * (ix[:, None] + ox)).ravel()
@@ -496,7 +514,8 @@ def estimate_lambda_max(
     bounding box plus the window's vertices (and, for a :class:`SquaredExponentialMixture`, each
     bump's maximiser in the box). For a :class:`RasterIntensity` it is the exact largest cell
     value meeting the box, without margin. Returns 0 if every evaluated value is 0.
-    Raises ValueError where ``lambda`` is negative, NaN or infinite.
+    Raises ValueError where ``lambda`` is negative, NaN or infinite, and MemoryError naming
+    ``n`` for a grid too large for :func:`batecho.memory_limit`.
     """
     w = _as_window(window)
     if isinstance(intensity, RasterIntensity):
@@ -506,6 +525,11 @@ def estimate_lambda_max(
     m = float(margin)
     if not (np.isfinite(m) and m >= 1.0):
         raise ValueError(f"margin must be finite and >= 1; got {margin!r}")
+    check_memory(
+        float(n) * n * BYTES_PER_GRID_POINT,
+        f"estimate_lambda_max on an n x n grid of n = {n}",
+        "use a smaller n",
+    )
     xmin, xmax, ymin, ymax = w.bbox
     gx, gy = np.meshgrid(np.linspace(xmin, xmax, n), np.linspace(ymin, ymax, n))
     pts = [np.column_stack([gx.ravel(), gy.ravel()]), w.vertices]
