@@ -445,3 +445,16 @@ def test_integrate_intensity_refuses_a_boundary_refinement_too_large_for_memory_
 def test_estimate_lambda_max_refuses_a_grid_too_large_for_memory_naming_n():
     with pytest.raises(MemoryError, match="n = 400"):
         estimate_lambda_max(exp_intensity, EXP_RECT, n=400)
+
+
+@pytest.mark.parametrize("scale", [1e8, 1e16, 1e200])
+def test_mixture_integral_of_a_bump_far_wider_than_the_window_is_its_peak_times_the_area(scale):
+    f = SquaredExponentialMixture([[0.0, 0.0]], [scale], [0.5])
+    assert f.integral((0.0, 2.0, -1.0, 2.0)) == pytest.approx(0.5 * 2.0 * 3.0, rel=1e-9)
+
+
+def test_mixture_integral_far_out_in_a_tail_keeps_its_relative_precision():
+    f = SquaredExponentialMixture([[0.0, 0.0]], [1.0], [1.0])
+    x0, x1 = 10.0, 11.0  # Phi(x1) - Phi(x0) is ~7.6e-24: it cancels to 0 near 1
+    expected = 2.0 * np.pi * (ndtr(-x0) - ndtr(-x1)) * (ndtr(1.0) - ndtr(-1.0))
+    assert f.integral((x0, x1, -1.0, 1.0)) == pytest.approx(expected, rel=1e-12, abs=0.0)
