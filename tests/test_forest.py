@@ -326,3 +326,12 @@ def test_scene_with_branches_refuses_a_forest_without_skeletons():
         forest.scene(branches=True)
     with pytest.raises(TypeError, match="branches must be True or False"):
         forest.scene(branches="yes")
+
+
+@pytest.mark.parametrize("extra", [{"tree_params": {"n_levels": 3}}, {"variants": 2}])
+def test_one_tree_for_every_position_refuses_tree_params_and_variants_naming_them(
+    small_tree, extra
+):
+    (name,) = extra
+    with pytest.raises(ValueError, match=name):
+        Forest.from_positions([[0.0, 0.0], [5.0, 5.0]], 0, tree=small_tree, **extra)

@@ -163,7 +163,8 @@ class Forest(ReadOnlyOnLoading):
         """Trees at the given ground positions (t, 2) m, each turned by a uniform random angle
         about the vertical and scaled by ``exp(scale_sd * z)``, z ~ N(0, 1) (``scale_sd = 0``:
         all full size). ``tree`` is a function ``tree(rng, **tree_params) -> Tree`` (default
-        :func:`~batecho.trees.grow_tree`) or one Tree to stand everywhere. ``variants=None``
+        :func:`~batecho.trees.grow_tree`) or one Tree to stand everywhere (then without
+        ``tree_params`` or ``variants``, which it refuses). ``variants=None``
         grows one tree per position; ``variants=k`` grows ``k`` and reuses them, assigned by a
         random permutation of ``0, 1, ..., k-1, 0, 1, ...`` (all used when ``t >= k``)."""
         gen, seed = generator(rng), int_seed(rng)
@@ -258,6 +259,17 @@ class Forest(ReadOnlyOnLoading):
         rotations = place.uniform(0.0, 360.0, t)
         scales = np.exp(scale_sd * place.standard_normal(t))
         if isinstance(tree, Tree):
+            # (one Tree stands everywhere as it is: nothing is grown, so nothing to apply these to)
+            if tree_params:
+                raise ValueError(
+                    f"tree_params {dict(tree_params)!r} are for a tree function; tree is one Tree, "
+                    "which stands everywhere as it is (pass tree=grow_tree or your function)"
+                )
+            if variants is not None:
+                raise ValueError(
+                    f"variants = {variants!r} is for a tree function; tree is one Tree, which "
+                    "stands everywhere as it is (pass tree=grow_tree or your function)"
+                )
             vs: list[Tree] = [tree]
             vi = np.zeros(t, np.int64)
             name = "Tree"
