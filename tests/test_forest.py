@@ -335,3 +335,15 @@ def test_one_tree_for_every_position_refuses_tree_params_and_variants_naming_the
     (name,) = extra
     with pytest.raises(ValueError, match=name):
         Forest.from_positions([[0.0, 0.0], [5.0, 5.0]], 0, tree=small_tree, **extra)
+
+
+def test_a_tree_function_that_returns_no_tree_is_refused_after_its_first_call():
+    calls = []
+
+    def no_tree(rng, **kwargs):
+        calls.append(rng)
+        return None
+
+    with pytest.raises(TypeError, match="must return a Tree"):
+        Forest.from_positions(np.zeros((20, 2)), 0, tree=no_tree)
+    assert len(calls) == 1

@@ -282,13 +282,11 @@ class Forest(ReadOnlyOnLoading):
             # generator spawned one, then n - 1, are those spawned n at once).
             t0 = time.perf_counter()
             vs = [tree(g, **kwargs) for g in spawn(tree_gen, 1)] if n_grow else []
-            if vs and isinstance(vs[0], Tree):
+            if n_grow:
+                _check_grown(vs[0], 0)
                 guard_forest(t, n_grow, vs[0].n_leaves, time.perf_counter() - t0)
-            if n_grow > 1:
-                vs += [tree(g, **kwargs) for g in spawn(tree_gen, n_grow - 1)]
-            for i, v in enumerate(vs):
-                if not isinstance(v, Tree):
-                    raise TypeError(f"tree(...) must return a Tree; call {i} gave {type(v)}")
+            for i, g in enumerate(spawn(tree_gen, n_grow - 1) if n_grow > 1 else [], start=1):
+                vs.append(_check_grown(tree(g, **kwargs), i))
             name = getattr(tree, "__name__", type(tree).__name__)
         else:
             raise TypeError(f"tree must be a Tree or a function returning one, got {tree!r}")
@@ -619,6 +617,13 @@ class Forest(ReadOnlyOnLoading):
             f"Forest(n_trees={self.n_trees}, variants={len(self._variants)}, "
             f"n_leaves={self.n_leaves})"
         )
+
+
+def _check_grown(v: Any, i: int) -> Tree:
+    """``v``, call ``i``'s result of a tree function; TypeError unless it is a Tree."""
+    if not isinstance(v, Tree):
+        raise TypeError(f"tree(...) must return a Tree; call {i} gave {type(v)}")
+    return v
 
 
 def _ground_positions(positions: Any) -> np.ndarray:
