@@ -347,3 +347,12 @@ def test_a_tree_function_that_returns_no_tree_is_refused_after_its_first_call():
     with pytest.raises(TypeError, match="must return a Tree"):
         Forest.from_positions(np.zeros((20, 2)), 0, tree=no_tree)
     assert len(calls) == 1
+
+
+@pytest.mark.parametrize("scale_sd", [1000.0, 1e300])
+def test_a_scale_sd_whose_sizes_leave_float64_is_refused_naming_it_before_growing(scale_sd):
+    def no_growing(rng, **kwargs):
+        raise AssertionError("grew a tree")
+
+    with pytest.raises(ValueError, match="scale_sd"):
+        Forest.from_positions(np.zeros((20, 2)), 0, tree=no_growing, scale_sd=scale_sd)

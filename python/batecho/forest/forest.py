@@ -251,13 +251,21 @@ class Forest(ReadOnlyOnLoading):
     ) -> Forest:
         pos = _ground_positions(positions)  # (checked before any tree grows)
         t = len(pos)
-        positive_scalar(scale_sd, "scale_sd", allow_zero=True, strict=True)
+        sd = positive_scalar(scale_sd, "scale_sd", allow_zero=True, strict=True)
         if variants is not None:
             integer(variants, "variants", 1)
         if tree_params is not None and not isinstance(tree_params, Mapping):
             raise TypeError(f"tree_params must be a mapping, got {type(tree_params).__name__}")
         rotations = place.uniform(0.0, 360.0, t)
-        scales = np.exp(scale_sd * place.standard_normal(t))
+        with np.errstate(over="ignore", under="ignore"):
+            scales = np.exp(sd * place.standard_normal(t))
+        bad = ~(np.isfinite(scales) & (scales > 0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"scale_sd = {scale_sd!r} makes tree {i}'s size factor exp(scale_sd * z) "
+                f"{scales[i]!r}, outside float64's positive numbers; use a scale_sd nearer 0"
+            )
         if isinstance(tree, Tree):
             # (one Tree stands everywhere as it is: nothing is grown, so nothing to apply these to)
             if tree_params:
