@@ -705,3 +705,22 @@ def test_a_reference_without_a_skeleton_grows_trees_with_silent_wood(tmp_path, l
     with pytest.warns(UserWarning, match="wood is silent"):
         t = grow_tree(np.random.default_rng(0), reference=path)
     assert t.branches is None
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"branching_angle_deg": True}, "branching_angle_deg"),
+        ({"divergence_deg": "137.5"}, "divergence_deg"),
+        ({"lsystem": {"contraction": "0.85"}}, "contraction"),
+        ({"lsystem": {"angle_jitter_deg": False}}, "angle_jitter_deg"),
+    ],
+)
+def test_grow_tree_refuses_a_bool_or_string_for_a_branching_parameter_naming_it(kwargs, name):
+    with pytest.raises(TypeError, match=f"{name} must be a real number"):
+        grow_tree(0, **kwargs)
+
+
+def test_grow_tree_refuses_an_lsystem_that_is_not_a_mapping_naming_it():
+    with pytest.raises(TypeError, match="lsystem must be a mapping"):
+        grow_tree(0, lsystem="buds_per_node=2")

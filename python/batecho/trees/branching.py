@@ -79,7 +79,7 @@ def trunk_branching(
     times the one below; the node heights and the top fill ``[first_branch_height,
     trunk_height]`` exactly), and the random jitters below are drawn from ``rng``.
 
-    Parameters (metres, degrees)
+    Parameters (metres, degrees; real numbers, not bools or strings: TypeError)
     ----------
     rng : numpy.random.Generator, int or None
         Source of randomness; the same seed gives the same branching.
@@ -115,16 +115,16 @@ def trunk_branching(
     large for :func:`batecho.memory_limit` raises MemoryError.
     """
     gen = np.random.default_rng(rng)
-    height = finite_scalar(trunk_height, "trunk_height")
-    h0 = finite_scalar(first_branch_height, "first_branch_height")
-    theta0 = finite_scalar(branching_angle_deg, "branching_angle_deg")
-    div = finite_scalar(divergence_deg, "divergence_deg")
-    r = finite_scalar(contraction, "contraction")
-    lmax = finite_scalar(branch_length, "branch_length")
-    ajit = finite_scalar(angle_jitter_deg, "angle_jitter_deg")
-    djit = finite_scalar(divergence_jitter_deg, "divergence_jitter_deg")
-    ijit = finite_scalar(internode_jitter, "internode_jitter")
-    ljit = finite_scalar(length_jitter, "length_jitter")
+    height = finite_scalar(trunk_height, "trunk_height", strict=True)
+    h0 = finite_scalar(first_branch_height, "first_branch_height", strict=True)
+    theta0 = finite_scalar(branching_angle_deg, "branching_angle_deg", strict=True)
+    div = finite_scalar(divergence_deg, "divergence_deg", strict=True)
+    r = finite_scalar(contraction, "contraction", strict=True)
+    lmax = finite_scalar(branch_length, "branch_length", strict=True)
+    ajit = finite_scalar(angle_jitter_deg, "angle_jitter_deg", strict=True)
+    djit = finite_scalar(divergence_jitter_deg, "divergence_jitter_deg", strict=True)
+    ijit = finite_scalar(internode_jitter, "internode_jitter", strict=True)
+    ljit = finite_scalar(length_jitter, "length_jitter", strict=True)
     if height <= 0:
         raise ValueError(f"trunk_height must be > 0 m, got {trunk_height!r}")
     if not 0 <= h0 < height:

@@ -262,6 +262,8 @@ def grow_tree(
     droop = math.radians(finite_scalar(droop_deg, "droop_deg", strict=True))
     ssd = positive_scalar(slide_sd, "slide_sd", allow_zero=True, strict=True, unit="m")
     b0 = point3(base, "base")
+    if lsystem is not None and not isinstance(lsystem, Mapping):
+        raise TypeError(f"lsystem must be a mapping of keyword arguments, got {lsystem!r}")
     extra = dict(lsystem or {})
     for key in ("trunk_height", "n_branches", "first_branch_height", "base", "rng"):
         if key in extra:
