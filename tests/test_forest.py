@@ -356,3 +356,9 @@ def test_a_scale_sd_whose_sizes_leave_float64_is_refused_naming_it_before_growin
 
     with pytest.raises(ValueError, match="scale_sd"):
         Forest.from_positions(np.zeros((20, 2)), 0, tree=no_growing, scale_sd=scale_sd)
+
+
+def test_an_empty_forest_scene_with_branches_says_it_has_no_trees(small_tree):
+    f = Forest.from_ipp(lambda x, y: 0.0, (0.0, 10.0, 0.0, 10.0), 0, tree=small_tree)
+    with pytest.raises(ValueError, match="the forest has no trees"):
+        f.scene(branches=True)

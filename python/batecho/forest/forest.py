@@ -466,6 +466,7 @@ class Forest(ReadOnlyOnLoading):
                 self._scene = Scene(self.leaves)
             return self._scene
         if self._wood_scene is None:
+            leaves = self.leaves  # (a forest without trees says so)
             wood = self.branches
             if wood is None:
                 raise ValueError(
@@ -473,7 +474,7 @@ class Forest(ReadOnlyOnLoading):
                     "have silent wood; give them one with Tree.with_branches), so "
                     "scene(branches=True) has no branches to place"
                 )
-            self._wood_scene = Scene(self.leaves, branches=wood)
+            self._wood_scene = Scene(leaves, branches=wood)
         return self._wood_scene
 
     def reaches(self, altitude: float | None = None, band: float = 0.0) -> np.ndarray:
