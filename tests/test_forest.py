@@ -362,3 +362,32 @@ def test_an_empty_forest_scene_with_branches_says_it_has_no_trees(small_tree):
     f = Forest.from_ipp(lambda x, y: 0.0, (0.0, 10.0, 0.0, 10.0), 0, tree=small_tree)
     with pytest.raises(ValueError, match="the forest has no trees"):
         f.scene(branches=True)
+
+
+@pytest.mark.parametrize("positions", [[[0.0, 0.0], [1.0]], [["a", "b"]], [[1.0 + 1.0j, 0.0]]])
+def test_positions_that_are_not_real_numbers_are_refused_naming_positions(small_tree, positions):
+    with pytest.raises(TypeError, match="positions"):
+        Forest.from_positions(positions, 0, tree=small_tree)
+
+
+@pytest.mark.parametrize("center", [(0.0, 0.0, 0.0), "ab", (0.0, float("nan"))])
+def test_a_clear_circle_about_a_center_that_is_not_a_finite_x_y_is_refused_naming_it(
+    paper_forest, center
+):
+    with pytest.raises((TypeError, ValueError), match="center"):
+        paper_forest.clear_circle_radius(center, 6.2)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"min_radius": "6"}, "min_radius"),
+        ({"min_radius": True}, "min_radius"),
+        ({"min_radius": 6.0, "margin": "1"}, "margin"),
+    ],
+)
+def test_a_clear_circle_refuses_a_radius_or_margin_that_is_not_a_number_naming_it(
+    paper_forest, kwargs, name
+):
+    with pytest.raises(TypeError, match=name):
+        paper_forest.clear_circle_radius((10.0, 10.0), **kwargs)

@@ -32,7 +32,7 @@ from .._geometry import rot_z
 from .._pickle import ReadOnlyOnLoading
 from .._random import generator, int_seed, spawn
 from .._resources import BYTES_PER_LEAF, check_memory, warn_if_slow
-from .._validate import finite_scalar, integer, positive_scalar, vectors
+from .._validate import finite_scalar, integer, positive_scalar, real_array, vectors
 from ..trees.branches import Branches
 from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
@@ -517,14 +517,11 @@ class Forest(ReadOnlyOnLoading):
         ``(d_i - reach_i - margin, d_i + reach_i + margin)``, with ``reach_i`` its reach
         (:meth:`reaches`) over all its parts, or, given the circle's ``altitude`` (m), over
         the parts within ``margin`` of that height."""
-        c = np.asarray(center, dtype=np.float64).reshape(2)
-        r = float(min_radius)
-        m = float(margin)
-        if not (np.isfinite(c).all() and np.isfinite(r) and r >= 0 and np.isfinite(m) and m >= 0):
-            raise ValueError(
-                f"center must be finite (x, y), min_radius and margin finite and >= 0; got "
-                f"{center!r}, {min_radius!r}, {margin!r}"
-            )
+        c = real_array(center, "center")
+        if c.shape != (2,) or not np.isfinite(c).all():
+            raise ValueError(f"center must be a finite (x, y), m; got {center!r}")
+        r = positive_scalar(min_radius, "min_radius", allow_zero=True, strict=True, unit="m")
+        m = positive_scalar(margin, "margin", allow_zero=True, strict=True, unit="m")
         d = np.hypot(self._positions[:, 0] - c[0], self._positions[:, 1] - c[1])
         reach = self.reaches(altitude, m)
         lo, hi = d - reach - m, d + reach + m
@@ -637,7 +634,7 @@ def _check_grown(v: Any, i: int) -> Tree:
 
 def _ground_positions(positions: Any) -> np.ndarray:
     """A new finite (t, 2) float64 array of ground positions (m); an empty one is (0, 2)."""
-    pos = np.array(positions, dtype=np.float64)
+    pos = real_array(positions, "positions")
     if pos.size == 0:
         pos = pos.reshape(0, 2)
     if pos.ndim != 2 or pos.shape[1] != 2:
