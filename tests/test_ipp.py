@@ -458,3 +458,12 @@ def test_mixture_integral_far_out_in_a_tail_keeps_its_relative_precision():
     x0, x1 = 10.0, 11.0  # Phi(x1) - Phi(x0) is ~7.6e-24: it cancels to 0 near 1
     expected = 2.0 * np.pi * (ndtr(-x0) - ndtr(-x1)) * (ndtr(1.0) - ndtr(-1.0))
     assert f.integral((x0, x1, -1.0, 1.0)) == pytest.approx(expected, rel=1e-12, abs=0.0)
+
+
+@pytest.mark.parametrize(
+    "window",
+    [(-1e308, 1e308, 0.0, 1.0), (0.0, 1e200, 0.0, 1e200), [[-1e308, 0], [1e308, 0], [0, 1]]],
+)
+def test_a_window_whose_size_overflows_float64_is_refused_naming_the_window(window):
+    with pytest.raises(ValueError, match="window .*float64"):
+        sample_ipp(paper_intensity(), window, 0)

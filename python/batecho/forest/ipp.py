@@ -94,7 +94,7 @@ class _Window:
                     f"{tuple(arr.tolist())}"
                 )
             self.bbox = (xmin, xmax, ymin, ymax)
-            self.area = (xmax - xmin) * (ymax - ymin)
+            self.area = _box_area(self.bbox, "window")
             self.vertices = np.array(
                 [[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]], dtype=np.float64
             )
@@ -111,6 +111,7 @@ class _Window:
             raise ValueError(f"a polygon window needs at least 3 vertices; got {arr.shape[0]}")
         x, y = arr[:, 0], arr[:, 1]
         xmin, xmax, ymin, ymax = float(x.min()), float(x.max()), float(y.min()), float(y.max())
+        _box_area((xmin, xmax, ymin, ymax), "polygon window")
         # Shoelace formula; |area| so that either orientation is accepted.
         area = 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)))
         if not (xmin < xmax and ymin < ymax) or area <= 1e-12 * (xmax - xmin) * (ymax - ymin):
@@ -134,6 +135,20 @@ class _Window:
         if x.size == 0:
             return np.zeros(x.shape, dtype=bool)
         return self._path.contains_points(np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
+
+
+def _box_area(bbox: tuple[float, float, float, float], what: str) -> float:
+    """The area (m^2) of the box ``bbox``; ValueError naming ``what`` when its sides or area
+    overflow float64 (grids on it would be NaN)."""
+    xmin, xmax, ymin, ymax = bbox
+    with np.errstate(over="ignore"):
+        area = (xmax - xmin) * (ymax - ymin)
+    if not math.isfinite(area):
+        raise ValueError(
+            f"{what} spans {xmax - xmin:.3g} m x {ymax - ymin:.3g} m, whose area is beyond "
+            "float64; use a window of ordinary size"
+        )
+    return area
 
 
 #: A window: ``(xmin, xmax, ymin, ymax)`` in m, or a (k, 2) array of polygon vertices in m
