@@ -467,3 +467,9 @@ def test_mixture_integral_far_out_in_a_tail_keeps_its_relative_precision():
 def test_a_window_whose_size_overflows_float64_is_refused_naming_the_window(window):
     with pytest.raises(ValueError, match="window .*float64"):
         sample_ipp(paper_intensity(), window, 0)
+
+
+@pytest.mark.parametrize("lam_max", [True, "0.1"])
+def test_a_lambda_max_that_is_not_a_number_is_refused_naming_it(lam_max):
+    with pytest.raises(TypeError, match="lambda_max"):
+        sample_ipp(paper_intensity(), PAPER_WINDOW, 0, lambda_max=lam_max)

@@ -617,14 +617,7 @@ def sample_ipp(
         if lam_max == 0.0:
             return np.empty((0, 2), dtype=np.float64)
     else:
-        try:
-            lam_max = float(lambda_max)
-        except (TypeError, ValueError):
-            raise TypeError(f"lambda_max must be a real number; got {lambda_max!r}") from None
-        if not (np.isfinite(lam_max) and lam_max > 0):
-            raise ValueError(
-                f"lambda_max must be finite and > 0 points per m^2; got {lambda_max!r}"
-            )
+        lam_max = positive_scalar(lambda_max, "lambda_max", strict=True, unit="points per m^2")
     xmin, xmax, ymin, ymax = w.bbox
     expected = lam_max * (xmax - xmin) * (ymax - ymin)
     if expected > MAX_CANDIDATES:
