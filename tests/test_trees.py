@@ -724,3 +724,13 @@ def test_grow_tree_refuses_a_bool_or_string_for_a_branching_parameter_naming_it(
 def test_grow_tree_refuses_an_lsystem_that_is_not_a_mapping_naming_it():
     with pytest.raises(TypeError, match="lsystem must be a mapping"):
         grow_tree(0, lsystem="buds_per_node=2")
+
+
+def test_tree_refuses_bark_vertices_beyond_the_largest_coordinate_naming_them(lsys_tree):
+    with pytest.raises(ValueError, match="bark_vertices .*beyond 1e\\+15 m"):
+        _bare_tree(lsys_tree.leaves, 1e300 * np.eye(3), [[0, 1, 2]])
+
+
+def test_an_lsystem_tree_with_a_trunk_radius_beyond_the_largest_coordinate_is_refused():
+    with pytest.raises(ValueError, match="beyond 1e\\+15 m"):
+        grow_lsystem_tree(0, n_levels=1, trunk_radius=1e300)

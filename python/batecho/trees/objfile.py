@@ -27,7 +27,7 @@ from .. import _core
 from .._geometry import crosses, norms
 from .._pickle import ReadOnlyOnLoading
 from .._validate import positive_scalar, readonly, real_array
-from .leaves import Leaves
+from .leaves import MAX_COORDINATE_M, Leaves
 
 #: The largest OBJ or MTL file a load reads (bytes), as the core's: 1 GiB. A load also needs
 #: about eight times the file's size in memory, within :func:`batecho.memory_limit`.
@@ -531,6 +531,10 @@ def _vertices(x: Any, name: str) -> np.ndarray:
         raise ValueError(f"{name} must have shape (v, 3), got {arr.shape}")
     if not np.isfinite(arr).all():
         raise ValueError(f"{name} must be finite")
+    far = np.abs(arr) > MAX_COORDINATE_M
+    if far.any():
+        i = int(np.argwhere(far)[0, 0])
+        raise ValueError(f"{name} {i} has a coordinate beyond {MAX_COORDINATE_M:g} m: {arr[i]}")
     return arr
 
 
