@@ -272,3 +272,8 @@ def test_a_trunk_far_longer_than_the_lobe_counts_the_reference_pieces(ears):
     np.testing.assert_array_equal(got.n_pieces, want.n_pieces)
     assert np.min(got.n_pieces) > 0
     assert rel_err(got.wood_spectrum, want.wood_spectrum) <= 1e-8
+
+
+def test_a_branch_radius_beyond_the_largest_coordinate_is_refused_naming_it():
+    with pytest.raises(ValueError, match="radii must be at most 1e\\+15 m; branch 0"):
+        Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], [1e300])

@@ -47,6 +47,9 @@ class Branches(ReadOnlyOnLoading):
         if (r <= 0).any():
             i = int(np.argmax(r <= 0))
             raise ValueError(f"radii must be > 0; branch {i} has radius {r[i]}")
+        if (r > MAX_COORDINATE_M).any():
+            i = int(np.argmax(r > MAX_COORDINATE_M))
+            raise ValueError(f"radii must be at most {MAX_COORDINATE_M:g} m; branch {i} has {r[i]}")
         for name, pts in (("start", s), ("end", e)):
             far = np.abs(pts) > MAX_COORDINATE_M
             if far.any():
