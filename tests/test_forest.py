@@ -391,3 +391,12 @@ def test_a_clear_circle_refuses_a_radius_or_margin_that_is_not_a_number_naming_i
 ):
     with pytest.raises(TypeError, match=name):
         paper_forest.clear_circle_radius((10.0, 10.0), **kwargs)
+
+
+def test_forest_params_keep_a_numpy_variants_count_as_a_python_int_for_json():
+    import json
+
+    f = Forest.from_positions(
+        [[0.0, 0.0]], 0, tree=grow_lsystem_tree, tree_params=SMALL, variants=np.int64(1)
+    )
+    assert json.loads(json.dumps(f.params))["variants"] == 1

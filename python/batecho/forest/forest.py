@@ -302,7 +302,7 @@ class Forest(ReadOnlyOnLoading):
             **params,
             "tree": name,
             "tree_params": dict(tree_params or {}),
-            "variants": variants,
+            "variants": None if variants is None else int(variants),
             "scale_sd": float(scale_sd),
         }
         return cls(
