@@ -439,3 +439,10 @@ def test_a_collision_is_the_first_time_the_clearance_falls_below_the_radius(fore
 def test_a_bad_drone_radius_is_refused_by_name(forest, pass_by, bad):
     with pytest.raises(ValueError, match="radius_m"):
         pass_by.collision(forest, bad)
+
+
+def test_a_bark_grid_too_large_for_memory_is_refused_before_it_is_filed():
+    # one 100 km triangle covers 4e10 cells of 0.5 m (NumPy was asked for 298 GiB)
+    big = np.array([[0.0, 0.0, 0.0], [1e5, 0.0, 0.0], [0.0, 1e5, 0.0]])
+    with pytest.raises(MemoryError, match="bark grid .* memory limit"):
+        BarkGrid(big, [[0, 1, 2]])

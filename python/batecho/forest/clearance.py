@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import crosses, dots
+from .._resources import check_memory
 from .._validate import finite_scalar, vectors
 
 __all__ = [
@@ -35,6 +36,10 @@ __all__ = [
 #: tracking error, and about where the far-field leaf model starts to hold (the Fraunhofer
 #: distance ``8 a^2 / lambda`` of a 2 cm leaf at 80 kHz is 0.75 m).
 DEFAULT_MIN_CLEARANCE_M = 0.5
+#: Memory of a :class:`BarkGrid` per triangle filed in a cell, and per cell (bytes): the
+#: filing's index arrays and the boxes kept beside each item; the cells' slice starts.
+BYTES_PER_FILED = 128.0
+BYTES_PER_CELL = 16.0
 
 #: Points whose nearby triangles are gathered together in :func:`bark_clearance`.
 _CHUNK = 16
@@ -113,6 +118,14 @@ class BarkGrid:
         nx, ny = int(i1[:, 0].max()) + 1, int(i1[:, 1].max()) + 1
         self.shape = (nx, ny)
         wx, wy = i1[:, 0] - i0[:, 0] + 1, i1[:, 1] - i0[:, 1] + 1
+        filed = float(np.sum(wx.astype(np.float64) * wy))
+        check_memory(
+            filed * BYTES_PER_FILED + float(nx) * ny * BYTES_PER_CELL,
+            f"a bark grid of {nx} x {ny} cells of {cell_m:g} m with {filed:.3g} triangle entries "
+            f"(bark spanning {nx * cell_m:.3g} m x {ny * cell_m:.3g} m)",
+            "use bark of ordinary size (a huge triangle, such as a ground plane, fills every "
+            "cell it covers)",
+        )
         counts = wx * wy
         owner = np.repeat(np.arange(len(f)), counts)
         k = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
