@@ -732,5 +732,6 @@ def test_tree_refuses_bark_vertices_beyond_the_largest_coordinate_naming_them(ls
 
 
 def test_an_lsystem_tree_with_a_trunk_radius_beyond_the_largest_coordinate_is_refused():
-    with pytest.raises(ValueError, match="beyond 1e\\+15 m"):
+    # (its trunk's branch radius is refused first, as Branches bounds radii)
+    with pytest.raises(ValueError, match="at most 1e\\+15 m; branch 0"):
         grow_lsystem_tree(0, n_levels=1, trunk_radius=1e300)
