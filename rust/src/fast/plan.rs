@@ -14,10 +14,11 @@ pub const MIN_TOL: f64 = 1e-13;
 
 /// The widest band, as `f_hi / f_lo`, on which a fast sum at `tol` keeps its error within
 /// `tol`: [`WORST_CHEB`] and the leaves' check are calibrated on 60-80 kHz (a ratio of 4/3).
-/// A random search of 5,300 one-pose cases (bands with ratios 1.1-12 and tops at 40-150 kHz,
-/// both leaf models, radii 2 mm - 20 cm, ranges 0.3 m to the record's edge, windows,
-/// absorption, wood; `tol` 1e-3 ... 1e-12) found the error within 0.83 `tol` up to a ratio of
-/// 2, within 1.8 `tol` up to 3, and up to 41 `tol` beyond.
+/// A random search of 5,300 one-pose cases (of the kind `tools/fast_band_search.py` runs:
+/// bands with ratios 1.1-12 and tops at 40-150 kHz, both leaf models, radii 2 mm - 20 cm,
+/// ranges 0.3 m to the record's edge, windows, absorption, wood; `tol` 1e-3 ... 1e-12) found
+/// the error within 0.83 `tol` up to a ratio of 2, within 1.8 `tol` up to 3, and up to 41 `tol`
+/// beyond.
 pub const CALIBRATED_BAND_RATIO: f64 = 2.0;
 /// On wider bands the fast sum is taken at `tol` divided by a factor: (the widest ratio, the
 /// factor). A second search of 1,400 cases at these factors found the error within 0.48 `tol`
