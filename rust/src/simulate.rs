@@ -165,6 +165,12 @@ pub fn simulate(
         _ => 1.0,
     };
     let share = scatter::tol_share(scene) / tightening;
+    // (the tightest working tol the fast sum takes: higher on a wide band)
+    let floor = if tightening > 1.0 {
+        crate::fast::WIDE_BAND_MIN_TOL
+    } else {
+        crate::fast::MIN_TOL
+    };
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
     // Each receiver has a pose's arrays of its own: the output is that many records per pose.
@@ -194,7 +200,7 @@ pub fn simulate(
         Method::Exact => None,
         Method::Fast { tol } => {
             crate::fast::check_tol(tol)?;
-            if tol * share < crate::fast::MIN_TOL {
+            if tol * share < floor {
                 None // (below the fast method's floor: the exact sum holds tol)
             } else {
                 Some(sonar.plans.get(sonar, tol * share)?)
@@ -204,7 +210,7 @@ pub fn simulate(
             if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
                 return invalid(format!("tol must be in (0, 1), got {tol:e}"));
             }
-            if tol * share >= crate::fast::MIN_TOL {
+            if tol * share >= floor {
                 Some(sonar.plans.get(sonar, tol * share)?)
             } else {
                 None

@@ -262,7 +262,8 @@ def simulate(
     - ``"fast"`` uses a type-1 NUFFT in the round-trip delays, with a relative L2 error of the
       spectrum at most ``tol`` (``1e-13 <= tol < 1``); on bands wider than twice their
       lowest frequency it works at ``tol / 10`` or ``tol / 100``, which costs more, and
-      beyond six times it sums exactly (docs/model.md §6);
+      beyond six times, or below a working ``tol`` of 1e-12 there, it sums exactly
+      (docs/model.md §6);
     - ``"auto"`` (the default) picks, per pose, whichever of the two is cheaper for ``tol``.
 
     With the default ``tol=1e-12`` the result agrees with the exact sum to ~1e-13 (and so

@@ -55,7 +55,7 @@ pub(crate) use pass::{beside_leftovers, fast_sum_fixed, leftover_pass, spread_ta
 pub use pass::{chunk_len, fast_band_spectrum, fast_sum_terms, FAST_CHUNK};
 pub use plan::{
     band_tightening, check_tol, nodes_for_tol, FastPlan, PlanCache, K_FACTOR_TOL, MAX_NODES,
-    MIN_TOL,
+    MIN_TOL, WIDE_BAND_MIN_TOL,
 };
 pub(crate) use po::po_leaf;
 pub(crate) use pool::take_grid;
