@@ -74,6 +74,34 @@ fn slopes(vb: f64, z: f64, rho: f64) -> (f64, f64) {
     (lo - WIDEN * (1.0 + lo.abs()), hi + WIDEN * (1.0 + hi.abs()))
 }
 
+/// A rectangle of cells: `rows` rows of `width` cells, the first starting at cell `first`
+/// and each `stride` cells after the one before (empty without rows); or, with `rows` =
+/// `u32::MAX`, a disk whose cells are found apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Rect {
+    pub first: u32,
+    pub width: u32,
+    pub rows: u32,
+    pub stride: u32,
+}
+
+impl Rect {
+    /// No cell.
+    const EMPTY: Rect = Rect {
+        first: 0,
+        width: 0,
+        rows: 0,
+        stride: 0,
+    };
+    /// A disk whose cells are found apart.
+    pub const APART: Rect = Rect {
+        first: 0,
+        width: 0,
+        rows: u32::MAX,
+        stride: 0,
+    };
+}
+
 /// Disks per call of [`disk_boxes`].
 pub(super) const DISKS: usize = 8;
 
@@ -286,30 +314,34 @@ impl Buffer {
         true
     }
 
-    /// Calls `visit(k, c0, c1)` for runs of cells `c0..c1` (one row of one face at a time)
-    /// that hold every target whose ray can cross disk `k` of [`DISKS`] (centres `v` relative
-    /// to the sonar and unit normals `n`, by coordinate; radii `a`): the cells of the disk's
-    /// box on the face of its centre, or, for the rare disk whose box leaves that face or that
-    /// lies too near the sonar, those of its ball ([`Buffer::ball_cells`]; every cell if that
-    /// is too near to bin). Disk by disk, in order.
+    /// The cells that can hold a target whose ray crosses disk `k` of [`DISKS`] (centres `v`
+    /// relative to the sonar and unit normals `n`, by coordinate; radii `a`): the rectangle of
+    /// the cells of the disk's box on the face of its centre, or, for the rare disk whose box
+    /// leaves that face or that lies too near the sonar, [`Rect::APART`]: its cells are found
+    /// by [`Buffer::disk_cells_apart`].
     #[inline(always)]
-    pub(super) fn disks_cells(
+    pub(super) fn disks_rects(
         &self,
         v: &[[f64; DISKS]; 3],
         n: &[[f64; DISKS]; 3],
         a: &[f64; DISKS],
-        mut visit: impl FnMut(usize, usize, usize),
-    ) {
+    ) -> [Rect; DISKS] {
         let b = disk_boxes(v, n, a);
-        for k in 0..DISKS {
+        std::array::from_fn(|k| {
             if b.inside[k] {
-                self.visit_face(b.face[k] as usize, b.u[k], b.w[k], &mut |c0, c1| {
-                    visit(k, c0, c1)
-                });
-            } else if !self.ball_cells([v[0][k], v[1][k], v[2][k]], a[k], |c0, c1| visit(k, c0, c1))
-            {
-                visit(k, 0, self.n_cells);
+                self.face_rect(b.face[k] as usize, b.u[k], b.w[k])
+            } else {
+                Rect::APART
             }
+        })
+    }
+
+    /// Calls `visit(c0, c1)` for the runs of cells `c0..c1` of a disk (centre `v` relative to
+    /// the sonar, radius `a`) that [`Buffer::disks_rects`] marks apart: those of its ball
+    /// ([`Buffer::ball_cells`]), or every cell if that is too near the sonar to bin.
+    pub(super) fn disk_cells_apart(&self, v: V3, a: f64, mut visit: impl FnMut(usize, usize)) {
+        if !self.ball_cells(v, a, &mut visit) {
+            visit(0, self.n_cells);
         }
     }
 
@@ -327,7 +359,7 @@ impl Buffer {
         ))
     }
 
-    /// Visit the cells of face `f` within the slope ranges `u`, `w`.
+    /// Visit the cells of face `f` within the slope ranges `u`, `w`, row by row.
     #[inline(always)]
     fn visit_face(
         &self,
@@ -336,13 +368,25 @@ impl Buffer {
         w: (f64, f64),
         visit: &mut impl FnMut(usize, usize),
     ) {
+        let r = self.face_rect(f, u, w);
+        for q in 0..r.rows as usize {
+            let c0 = r.first as usize + q * r.stride as usize;
+            visit(c0, c0 + r.width as usize);
+        }
+    }
+
+    /// The rectangle of cells of face `f` within the slope ranges `u`, `w`: from the cell
+    /// coordinates of their bounds ([`Buffer::coord`]), the upper ones clamped to the grid;
+    /// empty for a face without a grid or ranges beside it.
+    #[inline(always)]
+    fn face_rect(&self, f: usize, u: (f64, f64), w: (f64, f64)) -> Rect {
         let fc = &self.faces[f];
         if fc.nu == 0 {
-            return;
+            return Rect::EMPTY;
         }
         let (umax, vmax) = (fc.u0 + fc.nu as f64 * self.h, fc.v0 + fc.nv as f64 * self.h);
         if u.1 < fc.u0 || w.1 < fc.v0 || u.0 > umax || w.0 > vmax {
-            return;
+            return Rect::EMPTY;
         }
         let (i0, i1) = (
             self.coord(u.0, fc.u0),
@@ -353,11 +397,13 @@ impl Buffer {
             self.coord(w.1, fc.v0).min(fc.nv - 1),
         );
         if i0 > i1 || j0 > j1 {
-            return;
+            return Rect::EMPTY;
         }
-        for j in j0..=j1 {
-            let row = fc.first + j * fc.nu;
-            visit(row + i0, row + i1 + 1);
+        Rect {
+            first: (fc.first + j0 * fc.nu + i0) as u32,
+            width: (i1 + 1 - i0) as u32,
+            rows: (j1 + 1 - j0) as u32,
+            stride: fc.nu as u32,
         }
     }
 }
@@ -418,9 +464,19 @@ mod tests {
                     a[k] = r;
                 }
                 let mut reached = vec![vec![false; buf.n_cells()]; DISKS];
-                buf.disks_cells(&v, &n, &a, |k, c0, c1| {
-                    reached[k][c0..c1].iter_mut().for_each(|r| *r = true)
-                });
+                for (k, rect) in buf.disks_rects(&v, &n, &a).iter().enumerate() {
+                    let mut mark = |c0: usize, c1: usize| {
+                        reached[k][c0..c1].iter_mut().for_each(|r| *r = true)
+                    };
+                    if *rect == Rect::APART {
+                        buf.disk_cells_apart([v[0][k], v[1][k], v[2][k]], a[k], mark);
+                    } else {
+                        for q in 0..rect.rows as usize {
+                            let c0 = rect.first as usize + q * rect.stride as usize;
+                            mark(c0, c0 + rect.width as usize);
+                        }
+                    }
+                }
                 for (k, &(c, nn, r)) in batch.iter().enumerate() {
                     let disk = Disk::new(c, nn, r);
                     for (i, t) in targets.iter().enumerate() {

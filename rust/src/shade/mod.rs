@@ -7,8 +7,8 @@
 //! target directions they cover (a leaf by its disk's box, a segment by balls along it), and
 //! each target in those cells is tested exactly ([`crossing`]). Occluders go in parallel, in
 //! the BVH's order (near in space, so near in direction: the targets they reach are in cache);
-//! a target's count is an integer sum, so the result does not depend on the order or the
-//! number of threads.
+//! each worker thread counts crossings into its own array and the arrays are added, integer
+//! sums, so the result does not depend on the order or the number of threads.
 
 pub mod buffer;
 pub mod crossing;
@@ -21,8 +21,9 @@ use buffer::Buffer;
 use crossing::Cylinder;
 use occluders::{occluding_leaves, occluding_segments, Cone};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use sweep::{leaf_chunk, Rays};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use sweep::{leaf_chunk, Rays, Work};
 
 /// A scatterer whose ray is cast: its point (a leaf's centre, a branch piece's reference
 /// point) and what it is, so that it is never its own occluder.
@@ -89,12 +90,11 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
         2.0 * typical_angular_radius(scene, origin, &leaves, &segments),
     );
     let rays = rays_in_order(targets, &buf, &w, &r);
-    let crossings: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
     let blocked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
     let all = buf.n_cells();
-    leaves
-        .par_chunks(OCCLUDER_CHUNK)
-        .for_each(|chunk| leaf_chunk(scene, origin, &buf, &rays, chunk, &crossings));
+    let crossings = count_crossings(n, leaves.par_chunks(OCCLUDER_CHUNK), |chunk, work| {
+        leaf_chunk(scene, origin, &buf, &rays, chunk, work)
+    });
     segments.par_chunks(OCCLUDER_CHUNK / 8).for_each(|chunk| {
         let mut cells: Vec<(usize, usize)> = Vec::new();
         for &j in chunk {
@@ -155,10 +155,47 @@ pub fn cast(scene: &Scene, origin: V3, targets: &[Target], branches_block: bool)
     buf.slot
         .par_iter()
         .map(|&pos| Sight {
-            crossings: crossings[pos as usize].load(Ordering::Relaxed),
+            crossings: crossings[pos as usize],
             blocked: blocked[pos as usize].load(Ordering::Relaxed),
         })
         .collect()
+}
+
+/// The crossings of `n` targets by position, counted by `count(chunk, work)` over the
+/// `chunks` in parallel: each worker thread counts into its own [`Work`] (made on its first
+/// chunk), and the threads' counts are added at the end; integer sums, so the counts are the
+/// same for any number of threads and any split of the work.
+fn count_crossings<'a>(
+    n: usize,
+    chunks: impl ParallelIterator<Item = &'a [u32]>,
+    count: impl Fn(&[u32], &mut Work) + Sync,
+) -> Vec<u32> {
+    let slots: Vec<Mutex<Option<Work>>> = (0..rayon::current_num_threads())
+        .map(|_| Mutex::new(None))
+        .collect();
+    chunks.for_each(|chunk| {
+        // (a thread of the pool locks only its own slot, and `count` makes no rayon call, so
+        // the thread cannot take up another chunk while it holds the lock)
+        let i = rayon::current_thread_index().unwrap_or(0) % slots.len();
+        let mut slot = slots[i].lock().unwrap_or_else(|e| e.into_inner());
+        count(chunk, slot.get_or_insert_with(|| Work::new(n)));
+    });
+    let mut total: Vec<u32> = Vec::new();
+    for slot in slots {
+        let Some(work) = slot.into_inner().unwrap_or_else(|e| e.into_inner()) else {
+            continue;
+        };
+        if total.is_empty() {
+            total = work.crossings;
+        } else {
+            total
+                .iter_mut()
+                .zip(&work.crossings)
+                .for_each(|(x, y)| *x += y);
+        }
+    }
+    total.resize(n.max(total.len()), 0);
+    total
 }
 
 /// The targets' rays in the buffer's order (gathered in parallel), padded as

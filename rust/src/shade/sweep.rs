@@ -3,12 +3,13 @@
 //! its nearest point, by the exact test of [`Disk::crossed_by`] written lane by lane, in
 //! AVX-512 or AVX2 where the CPU has them and in portable code otherwise. The lanes perform the
 //! same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so they decide every
-//! ray alike.
-use super::buffer::{Buffer, DISKS};
+//! ray alike. The tests are listed first as steps (a disk against eight consecutive targets)
+//! and then run in one flat loop, so that the CPU predicts its branches and overlaps the
+//! steps' divisions; each step adds its crossings to the task's counts lane by lane.
+use super::buffer::{Buffer, Rect, DISKS};
 use super::crossing::Disk;
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
-use std::sync::atomic::{AtomicU32, Ordering};
 
 /// The targets as the occluder loops read them, one entry per position of the buffer's order
 /// (cell by cell): ray components, range, own leaf
@@ -47,39 +48,66 @@ impl Rays {
 /// ray, so that every step reads whole lanes and vectorises, short rows included.
 pub(super) const LANES: usize = 8;
 
-/// Count, for every target, the disks of the leaves `chunk` (stored indices) that its ray
-/// crosses, into `crossings` (by position). The chunk's disks and their runs of positions come
-/// first (independent scalar work that pipelines), then the tests, then the count.
+/// Count, for every target, the disks of the leaves `chunk` (stored indices, at most
+/// [`u16::MAX`] + 1) that its ray crosses, into the task's `work` (by position): a block of
+/// disks and their steps at a time (independent scalar work that pipelines), then, once
+/// [`STEPS_HELD`] steps are held and at the end, the tests and counts in one flat loop over
+/// the steps, whose branches the CPU predicts.
 pub(super) fn leaf_chunk(
     scene: &Scene,
     origin: V3,
     buf: &Buffer,
     rays: &Rays,
     chunk: &[u32],
-    crossings: &[AtomicU32],
+    work: &mut Work,
 ) {
-    let (disks, runs) = occluders_of(scene, origin, buf, chunk);
-    let mut hits = Hits::new(rays, crossings, HITS_HELD);
-    test_chunk_fastest(&disks, &runs, rays, &mut hits);
-    hits.count();
+    assert!(
+        chunk.len() <= usize::from(u16::MAX) + 1,
+        "a chunk's disks are u16"
+    );
+    work.disks.clear();
+    work.steps.clear();
+    for block in chunk.chunks(DISKS) {
+        work.push_block(scene, origin, buf, block);
+        if work.steps.len() >= STEPS_HELD {
+            work.test(rays);
+        }
+    }
+    work.test(rays);
 }
 
-/// Steps with a hit that [`Hits`] holds before it counts them.
-const HITS_HELD: usize = 4096;
+/// Steps held before they are tested (a disk too near the sonar to bin has a step for every
+/// [`LANES`] targets).
+const STEPS_HELD: usize = 1 << 16;
 
-/// The disks of the leaves `chunk` (stored indices) and their runs of positions in the buffer.
-fn occluders_of(
-    scene: &Scene,
-    origin: V3,
-    buf: &Buffer,
-    chunk: &[u32],
-) -> (Vec<Occluder>, Vec<(u32, u32)>) {
-    let mut disks: Vec<Occluder> = Vec::with_capacity(chunk.len());
-    let mut runs: Vec<(u32, u32)> = Vec::with_capacity(4 * chunk.len());
-    for block in chunk.chunks(DISKS) {
+/// One task's working space: its chunk's disks and steps, and its counts of crossings by
+/// position (padded by [`LANES`]; the tasks' counts are added at the end, so that the sums
+/// are the same for any split of the work).
+pub(super) struct Work {
+    disks: Vec<Occluder>,
+    steps: Vec<Step>,
+    pub crossings: Vec<u32>,
+}
+
+impl Work {
+    /// Working space for `n` targets.
+    pub fn new(n: usize) -> Work {
+        Work {
+            disks: Vec::new(),
+            steps: Vec::new(),
+            crossings: vec![0; n + LANES],
+        }
+    }
+
+    /// The disks of the leaves `block` (stored indices, at most [`DISKS`]) and the steps of
+    /// their tests over the runs of positions of the cells they reach.
+    fn push_block(&mut self, scene: &Scene, origin: V3, buf: &Buffer, block: &[u32]) {
+        let (disks, steps) = (&mut self.disks, &mut self.steps);
+        let start = &buf.start[..];
         let mut v = [[0.0f64; DISKS]; 3];
         let mut nrm = [[0.0f64; DISKS]; 3];
         let mut a = [0.0f64; DISKS];
+        let first = disks.len();
         for (k, &j) in block.iter().enumerate() {
             let c = scene.centers.get(j as usize);
             let vk = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
@@ -87,188 +115,167 @@ fn occluders_of(
             a[k] = scene.radii[j as usize];
             let nk = scene.normals.get(j as usize);
             (nrm[0][k], nrm[1][k], nrm[2][k]) = (nk[0], nk[1], nk[2]);
-            disks.push(Occluder {
-                disk: Disk::new(vk, nk, a[k]),
-                // (no crossing of a ray shorter than the disk's nearest distance)
-                near: (dot(vk, vk).sqrt() - a[k]) * (1.0 - 1e-12),
-                leaf: j,
-                runs_end: 0,
-            });
+            disks.push(Occluder::new(Disk::new(vk, nk, a[k]), a[k], j));
         }
-        let live = block.len();
-        let mut ends = [runs.len() as u32; DISKS];
-        // (a disk too near the sonar to bin visits every cell: every target is tested)
-        buf.disks_cells(&v, &nrm, &a, |k, c0, c1| {
-            let (lo, hi) = (buf.start[c0], buf.start[c1]);
-            if k < live && lo < hi {
-                runs.push((lo, hi));
-                ends[k] = runs.len() as u32;
+        let rects = buf.disks_rects(&v, &nrm, &a);
+        for (k, rect) in rects.iter().enumerate().take(block.len()) {
+            let occ = (first + k) as u16;
+            if *rect == Rect::APART {
+                buf.disk_cells_apart([v[0][k], v[1][k], v[2][k]], a[k], |c0, c1| {
+                    push_run(steps, occ, start[c0], start[c1])
+                });
+                continue;
             }
-        });
-        let first = disks.len() - live;
-        let mut end = 0;
-        for (k, d) in disks[first..].iter_mut().enumerate() {
-            end = end.max(ends[k]);
-            d.runs_end = end;
+            for q in 0..rect.rows as usize {
+                let c0 = rect.first as usize + q * rect.stride as usize;
+                push_run(steps, occ, start[c0], start[c0 + rect.width as usize]);
+            }
         }
     }
-    (disks, runs)
+
+    /// Test and count the steps held, and drop them.
+    fn test(&mut self, rays: &Rays) {
+        test_steps_fastest(&self.disks, &self.steps, rays, &mut self.crossings);
+        self.steps.clear();
+    }
 }
 
-/// [`test_chunk`] in the widest lanes the CPU has.
-fn test_chunk_fastest(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
+/// Append the steps of disk `occ` over the positions `lo..hi`.
+#[inline(always)]
+fn push_run(steps: &mut Vec<Step>, occ: u16, lo: u32, hi: u32) {
+    let mut at = lo;
+    while at < hi {
+        let left = hi - at;
+        let mask = if left >= LANES as u32 {
+            u8::MAX
+        } else {
+            ((1u32 << left) - 1) as u8
+        };
+        steps.push(Step { at, occ, mask });
+        at += LANES as u32;
+    }
+}
+
+/// An occluding leaf as the steps broadcast it: its disk's centre `v` (relative to the
+/// sonar), unit normal `n`, `n . v` and `a^2`, the range below which no ray can cross the
+/// disk, and its leaf's stored index.
+#[derive(Clone, Copy, Debug)]
+struct Occluder {
+    v: V3,
+    n: V3,
+    nv: f64,
+    a2: f64,
+    near: f64,
+    leaf: u32,
+}
+
+impl Occluder {
+    fn new(d: Disk, radius: f64, leaf: u32) -> Occluder {
+        Occluder {
+            v: d.v,
+            n: d.n,
+            nv: d.nv,
+            a2: d.a2,
+            // (no crossing of a ray shorter than the disk's nearest distance)
+            near: (dot(d.v, d.v).sqrt() - radius) * (1.0 - 1e-12),
+            leaf,
+        }
+    }
+
+    /// The disk as the scalar test takes it.
+    #[cfg(test)]
+    fn disk(&self) -> Disk {
+        Disk {
+            v: self.v,
+            n: self.n,
+            nv: self.nv,
+            a2: self.a2,
+        }
+    }
+}
+
+/// One step of the tests: disk `occ` of the chunk against the [`LANES`] rays from position
+/// `at`, of which those in `mask` are in its run.
+#[derive(Clone, Copy, Debug)]
+struct Step {
+    at: u32,
+    occ: u16,
+    mask: u8,
+}
+
+/// [`test_steps`] in the widest lanes the CPU has.
+fn test_steps_fastest(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [u32]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU has AVX-512F.
-        unsafe { test_chunk_avx512(disks, runs, rays, hits) };
+    if std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+    {
+        // SAFETY: the CPU has AVX-512F and VL.
+        unsafe { test_steps_avx512(disks, steps, rays, crossings) };
         return;
     }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
-        unsafe { test_chunk_avx2(disks, runs, rays, hits) };
+        unsafe { test_steps_avx2(disks, steps, rays, crossings) };
         return;
     }
-    test_chunk(disks, runs, rays, hits);
+    test_steps(disks, steps, rays, crossings);
 }
 
-/// The steps of a chunk's tests that hit: each step's first position, its lanes that hit (the
-/// padding past its run's end cleared) and the occluding leaf. The tests append every step
-/// and keep only those with a hit, without a branch, so that the divisions of successive
-/// steps overlap; the hits are counted into `crossings` (by position) when the buffer is full
-/// and at the end.
-struct Hits<'a> {
-    at: Vec<u32>,
-    own: Vec<u32>,
-    bits: Vec<u8>,
-    len: usize,
-    rays: &'a Rays,
-    crossings: &'a [AtomicU32],
-}
-
-impl<'a> Hits<'a> {
-    /// Room for `held` steps with a hit (at least one).
-    fn new(rays: &'a Rays, crossings: &'a [AtomicU32], held: usize) -> Hits<'a> {
-        // (one slot more: each append writes past the kept steps)
-        let room = held.max(1) + 1;
-        Hits {
-            at: vec![0; room],
-            own: vec![0; room],
-            bits: vec![0; room],
-            len: 0,
-            rays,
-            crossings,
-        }
-    }
-
-    /// Append the step at `at` of a run ending at `hi`, kept when a lane hits.
-    #[inline(always)]
-    fn push(&mut self, mut bits: u32, at: usize, hi: usize, own: u32) {
-        let live = hi - at;
-        if live < LANES {
-            bits &= (1u32 << live) - 1;
-        }
-        let k = self.len;
-        self.at[k] = at as u32;
-        self.own[k] = own;
-        self.bits[k] = bits as u8;
-        self.len += usize::from(bits != 0);
-        if self.len + 1 == self.at.len() {
-            self.count();
-        }
-    }
-
-    /// Count each kept hit into `crossings`, unless the ray is the occluding leaf's own, and
-    /// empty the buffer.
-    fn count(&mut self) {
-        for k in 0..self.len {
-            let (at, own) = (self.at[k] as usize, self.own[k]);
-            let mut bits = self.bits[k] as u32;
-            while bits != 0 {
-                let pos = at + bits.trailing_zeros() as usize;
-                if self.rays.leaf[pos] != own {
-                    self.crossings[pos].fetch_add(1, Ordering::Relaxed);
-                }
-                bits &= bits - 1;
-            }
-        }
-        self.len = 0;
-    }
-}
-
-/// An occluding leaf as the tests take it: its disk, the range below which no ray can cross
-/// it, its stored index, and the end of its runs in the chunk's list.
-struct Occluder {
-    disk: Disk,
-    near: f64,
-    leaf: u32,
-    runs_end: u32,
-}
-
-/// The exact disk test of every occluder against the rays of its runs, [`LANES`] at a time,
-/// in portable code (the same f64 operations, in the same order, as [`Disk::crossed_by`]).
-fn test_chunk(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
+/// The exact disk test of every step, [`LANES`] rays at a time, in portable code (the same f64
+/// operations, in the same order, as [`Disk::crossed_by`]); each ray crossed, unless it is
+/// the occluding leaf's own, counts one in `crossings` (by position).
+fn test_steps(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [u32]) {
     let lanes = |a: &[f64], at: usize| -> [f64; LANES] {
         a[at..at + LANES].try_into().expect("padded rays")
     };
-    let mut first = 0usize;
-    for o in disks {
-        let Disk { v, n, nv, a2 } = o.disk;
-        for &(lo, hi) in &runs[first..o.runs_end as usize] {
-            let (mut at, hi) = (lo as usize, hi as usize);
-            while at < hi {
-                let (x, y, z, range) = (
-                    lanes(&rays.x, at),
-                    lanes(&rays.y, at),
-                    lanes(&rays.z, at),
-                    lanes(&rays.range, at),
-                );
-                let mut bits = 0u32;
-                for k in 0..LANES {
-                    let (wx, wy, wz) = (x[k], y[k], z[k]);
-                    let d = n[0] * wx + n[1] * wy + n[2] * wz;
-                    let t = nv / d;
-                    let (q0, q1, q2) = (t * wx - v[0], t * wy - v[1], t * wz - v[2]);
-                    let qq = q0 * q0 + q1 * q1 + q2 * q2;
-                    let yes = (range[k] > o.near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
-                    bits |= u32::from(yes) << k;
-                }
-                hits.push(bits, at, hi, o.leaf);
-                at += LANES;
-            }
+    for s in steps {
+        let (o, at) = (&disks[s.occ as usize], s.at as usize);
+        let Occluder {
+            v,
+            n,
+            nv,
+            a2,
+            near,
+            leaf,
+        } = *o;
+        let (x, y, z, range) = (
+            lanes(&rays.x, at),
+            lanes(&rays.y, at),
+            lanes(&rays.z, at),
+            lanes(&rays.range, at),
+        );
+        for k in 0..LANES {
+            let (wx, wy, wz) = (x[k], y[k], z[k]);
+            let d = n[0] * wx + n[1] * wy + n[2] * wz;
+            let t = nv / d;
+            let (q0, q1, q2) = (t * wx - v[0], t * wy - v[1], t * wz - v[2]);
+            let qq = q0 * q0 + q1 * q1 + q2 * q2;
+            let yes = (range[k] > near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
+            let live = s.mask >> k & 1 == 1 && rays.leaf[at + k] != leaf;
+            crossings[at + k] += u32::from(yes & live);
         }
-        first = o.runs_end as usize;
     }
 }
 
-/// [`test_chunk`] in AVX2: two registers of four lanes per step, each operation the IEEE f64
+/// [`test_steps`] in AVX2: two registers of four lanes per step, each operation the IEEE f64
 /// operation of the portable code (no FMA), and the comparisons' NaN cases alike (`d != 0` is
 /// true for NaN, the others false).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn test_chunk_avx2(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
+unsafe fn test_steps_avx2(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [u32]) {
     use std::arch::x86_64::*;
-    let mut first = 0usize;
-    for o in disks {
-        let Disk { v, n, nv, a2 } = o.disk;
-        let (n0, n1, n2) = (
-            _mm256_set1_pd(n[0]),
-            _mm256_set1_pd(n[1]),
-            _mm256_set1_pd(n[2]),
-        );
-        let (v0, v1, v2) = (
-            _mm256_set1_pd(v[0]),
-            _mm256_set1_pd(v[1]),
-            _mm256_set1_pd(v[2]),
-        );
-        let (nv, a2, near) = (
-            _mm256_set1_pd(nv),
-            _mm256_set1_pd(a2),
-            _mm256_set1_pd(o.near),
-        );
-        let (zero, one) = (_mm256_setzero_pd(), _mm256_set1_pd(1.0));
+    let (zero, one) = (_mm256_setzero_pd(), _mm256_set1_pd(1.0));
+    assert!(crossings.len() >= rays.x.len());
+    for s in steps {
+        let (o, at) = (&disks[s.occ as usize], s.at as usize);
+        assert!(at + LANES <= rays.x.len());
+        let b = _mm256_set1_pd;
+        let (n0, n1, n2) = (b(o.n[0]), b(o.n[1]), b(o.n[2]));
+        let (v0, v1, v2) = (b(o.v[0]), b(o.v[1]), b(o.v[2]));
+        let (nv, a2, near) = (b(o.nv), b(o.a2), b(o.near));
         let half = |at: usize| -> i32 {
-            // SAFETY: `at + 4 <= len` for every step: the rays are padded by LANES.
+            // SAFETY: `at + 4 <= len` (asserted for the step's LANES).
             let (x, y, z, range) = unsafe {
                 (
                     _mm256_loadu_pd(rays.x.as_ptr().add(at)),
@@ -304,79 +311,68 @@ unsafe fn test_chunk_avx2(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, 
             );
             _mm256_movemask_pd(yes)
         };
-        for &(lo, hi) in &runs[first..o.runs_end as usize] {
-            assert!(hi as usize + LANES <= rays.x.len());
-            let (mut at, hi) = (lo as usize, hi as usize);
-            while at < hi {
-                let bits = (half(at) | (half(at + 4) << 4)) as u32;
-                hits.push(bits, at, hi, o.leaf);
-                at += LANES;
-            }
+        let mut bits = (half(at) | (half(at + 4) << 4)) as u32 & s.mask as u32;
+        while bits != 0 {
+            let pos = at + bits.trailing_zeros() as usize;
+            crossings[pos] += u32::from(rays.leaf[pos] != o.leaf);
+            bits &= bits - 1;
         }
-        first = o.runs_end as usize;
     }
 }
 
-/// [`test_chunk`] in AVX-512: one register of eight lanes per step, each operation the IEEE
-/// f64 operation of the portable code (no FMA), and the comparisons' NaN cases alike.
+/// [`test_steps`] in AVX-512: one register of eight lanes per step, each operation the IEEE
+/// f64 operation of the portable code (no FMA), and the comparisons' NaN cases alike; the
+/// counts are added lane by lane, without a branch.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn test_chunk_avx512(disks: &[Occluder], runs: &[(u32, u32)], rays: &Rays, hits: &mut Hits) {
+#[target_feature(enable = "avx512f,avx512vl")]
+unsafe fn test_steps_avx512(
+    disks: &[Occluder],
+    steps: &[Step],
+    rays: &Rays,
+    crossings: &mut [u32],
+) {
     use std::arch::x86_64::*;
-    let mut first = 0usize;
-    for o in disks {
-        let Disk { v, n, nv, a2 } = o.disk;
-        let (n0, n1, n2) = (
-            _mm512_set1_pd(n[0]),
-            _mm512_set1_pd(n[1]),
-            _mm512_set1_pd(n[2]),
-        );
-        let (v0, v1, v2) = (
-            _mm512_set1_pd(v[0]),
-            _mm512_set1_pd(v[1]),
-            _mm512_set1_pd(v[2]),
-        );
-        let (nv, a2, near) = (
-            _mm512_set1_pd(nv),
-            _mm512_set1_pd(a2),
-            _mm512_set1_pd(o.near),
-        );
-        let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
-        for &(lo, hi) in &runs[first..o.runs_end as usize] {
-            assert!(hi as usize + LANES <= rays.x.len());
-            let (mut at, hi) = (lo as usize, hi as usize);
-            while at < hi {
-                // SAFETY: `at + LANES <= len` for every step: the rays are padded by LANES.
-                let (x, y, z, range) = unsafe {
-                    (
-                        _mm512_loadu_pd(rays.x.as_ptr().add(at)),
-                        _mm512_loadu_pd(rays.y.as_ptr().add(at)),
-                        _mm512_loadu_pd(rays.z.as_ptr().add(at)),
-                        _mm512_loadu_pd(rays.range.as_ptr().add(at)),
-                    )
-                };
-                let d = _mm512_add_pd(
-                    _mm512_add_pd(_mm512_mul_pd(n0, x), _mm512_mul_pd(n1, y)),
-                    _mm512_mul_pd(n2, z),
-                );
-                let t = _mm512_div_pd(nv, d);
-                let q0 = _mm512_sub_pd(_mm512_mul_pd(t, x), v0);
-                let q1 = _mm512_sub_pd(_mm512_mul_pd(t, y), v1);
-                let q2 = _mm512_sub_pd(_mm512_mul_pd(t, z), v2);
-                let qq = _mm512_add_pd(
-                    _mm512_add_pd(_mm512_mul_pd(q0, q0), _mm512_mul_pd(q1, q1)),
-                    _mm512_mul_pd(q2, q2),
-                );
-                let m = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(range, near);
-                let m = _mm512_mask_cmp_pd_mask::<_CMP_NEQ_UQ>(m, d, zero);
-                let m = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, t, zero);
-                let m = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(m, t, one);
-                let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(m, qq, a2);
-                hits.push(u32::from(m), at, hi, o.leaf);
-                at += LANES;
-            }
+    let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
+    let ones = _mm256_set1_epi32(1);
+    assert!(crossings.len() >= rays.x.len() && rays.leaf.len() == rays.x.len());
+    for s in steps {
+        let (o, at) = (&disks[s.occ as usize], s.at as usize);
+        assert!(at + LANES <= rays.x.len());
+        let b = _mm512_set1_pd;
+        let (n0, n1, n2) = (b(o.n[0]), b(o.n[1]), b(o.n[2]));
+        let (v0, v1, v2) = (b(o.v[0]), b(o.v[1]), b(o.v[2]));
+        let (nv, a2, near) = (b(o.nv), b(o.a2), b(o.near));
+        // SAFETY: `at + LANES` is within the rays and the counts (asserted).
+        unsafe {
+            let (x, y, z, range) = (
+                _mm512_loadu_pd(rays.x.as_ptr().add(at)),
+                _mm512_loadu_pd(rays.y.as_ptr().add(at)),
+                _mm512_loadu_pd(rays.z.as_ptr().add(at)),
+                _mm512_loadu_pd(rays.range.as_ptr().add(at)),
+            );
+            let d = _mm512_add_pd(
+                _mm512_add_pd(_mm512_mul_pd(n0, x), _mm512_mul_pd(n1, y)),
+                _mm512_mul_pd(n2, z),
+            );
+            let t = _mm512_div_pd(nv, d);
+            let q0 = _mm512_sub_pd(_mm512_mul_pd(t, x), v0);
+            let q1 = _mm512_sub_pd(_mm512_mul_pd(t, y), v1);
+            let q2 = _mm512_sub_pd(_mm512_mul_pd(t, z), v2);
+            let qq = _mm512_add_pd(
+                _mm512_add_pd(_mm512_mul_pd(q0, q0), _mm512_mul_pd(q1, q1)),
+                _mm512_mul_pd(q2, q2),
+            );
+            let m = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(range, near);
+            let m = _mm512_mask_cmp_pd_mask::<_CMP_NEQ_UQ>(m, d, zero);
+            let m = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, t, zero);
+            let m = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(m, t, one);
+            let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(m, qq, a2);
+            let own = _mm256_loadu_si256(rays.leaf.as_ptr().add(at) as *const __m256i);
+            let m = m & s.mask & !_mm256_cmpeq_epi32_mask(own, _mm256_set1_epi32(o.leaf as i32));
+            let p = crossings.as_mut_ptr().add(at) as *mut __m256i;
+            let cur = _mm256_loadu_si256(p);
+            _mm256_storeu_si256(p, _mm256_mask_add_epi32(cur, m, cur, ones));
         }
-        first = o.runs_end as usize;
     }
 }
 
@@ -387,7 +383,7 @@ mod tests {
 
     /// Rays (padded) and disks with hard cases: rays through a disk's rim, rays in a disk's
     /// plane, rays shorter than a disk's nearest point, and a disk's own leaf's ray.
-    fn hard_cases() -> (Vec<Occluder>, Vec<(u32, u32)>, Rays) {
+    fn hard_cases() -> (Vec<Occluder>, Vec<Step>, Rays) {
         let mut u = uniforms(5);
         let mut w: Vec<(V3, u32)> = Vec::new();
         let mut disks = Vec::new();
@@ -421,23 +417,13 @@ mod tests {
                 };
                 w.push((target, if k == 11 && j % 2 == 0 { j } else { u32::MAX }));
             }
-            disks.push(Occluder {
-                disk: Disk::new(v, n, a),
-                near: (dot(v, v).sqrt() - a) * (1.0 - 1e-12),
-                leaf: j,
-                runs_end: 0,
-            });
+            disks.push((Disk::new(v, n, a), a, j));
         }
         // Exact decisions in binary: the disk at (2, 0, 0) facing x with radius 0.5; a ray
         // meeting its rim exactly (t = 1/2, |q|^2 = a^2, crossed), one ending exactly on its
         // plane (t = 1, not crossed) and one just outside its rim.
         let (v, n, a) = ([2.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.5);
-        disks.push(Occluder {
-            disk: Disk::new(v, n, a),
-            near: (dot(v, v).sqrt() - a) * (1.0 - 1e-12),
-            leaf: 40,
-            runs_end: 0,
-        });
+        disks.push((Disk::new(v, n, a), a, 40));
         for target in [[4.0, 1.0, 0.0], [2.0, 0.25, 0.0], [4.0, 1.0 + 1e-15, 0.0]] {
             w.push((target, u32::MAX));
         }
@@ -449,45 +435,51 @@ mod tests {
             rays.leaf[i] = *leaf;
         }
         // every disk against runs of every length and alignment, the whole list included
-        let mut runs = Vec::new();
-        for (j, d) in disks.iter_mut().enumerate() {
+        let mut out = Vec::new();
+        let mut steps = Vec::new();
+        for (j, &(d, a, leaf)) in disks.iter().enumerate() {
+            out.push(Occluder::new(d, a, leaf));
             let lo = (7 * j) % m;
-            runs.push((lo as u32, (lo + 1 + j % 13).min(m) as u32));
-            runs.push((0, m as u32));
-            d.runs_end = runs.len() as u32;
+            for (lo, hi) in [(lo, (lo + 1 + j % 13).min(m)), (0, m)] {
+                for at in (lo..hi).step_by(LANES) {
+                    let left = (hi - at).min(LANES);
+                    let mask = ((1u32 << left) - 1) as u8;
+                    steps.push(Step {
+                        at: at as u32,
+                        occ: j as u16,
+                        mask,
+                    });
+                }
+            }
         }
-        (disks, runs, rays)
+        (out, steps, rays)
     }
 
-    /// The crossings counted from the hits that `test` keeps (a few at a time, so that the
-    /// buffer fills and is counted many times over).
-    fn counts(test: impl FnOnce(&mut Hits)) -> Vec<u32> {
+    /// The crossings that `test` counts.
+    fn counts(test: impl FnOnce(&mut [u32])) -> Vec<u32> {
         let (_, _, rays) = hard_cases();
-        let c: Vec<AtomicU32> = (0..rays.x.len()).map(|_| AtomicU32::new(0)).collect();
-        let mut hits = Hits::new(&rays, &c, 3);
-        test(&mut hits);
-        hits.count();
-        c.iter().map(|x| x.load(Ordering::Relaxed)).collect()
+        let mut c = vec![0u32; rays.x.len()];
+        test(&mut c);
+        c
     }
 
     #[test]
     fn the_lanes_count_what_the_scalar_disk_test_decides() {
-        let (disks, runs, rays) = hard_cases();
-        let got = counts(|h| test_chunk(&disks, &runs, &rays, h));
+        let (disks, steps, rays) = hard_cases();
+        let got = counts(|c| test_steps(&disks, &steps, &rays, c));
         let mut want = vec![0u32; rays.x.len()];
-        let mut first = 0;
-        for o in &disks {
-            for &(lo, hi) in &runs[first..o.runs_end as usize] {
-                let (lo, hi) = (lo as usize, hi as usize);
-                for (pos, count) in want.iter_mut().enumerate().take(hi).skip(lo) {
-                    let w = rays.w(pos);
-                    if rays.range[pos] > o.near && rays.leaf[pos] != o.leaf && o.disk.crossed_by(w)
-                    {
-                        *count += 1;
-                    }
+        for s in &steps {
+            let o = s.occ as usize;
+            for k in 0..LANES {
+                let pos = s.at as usize + k;
+                if s.mask >> k & 1 == 1
+                    && rays.range[pos] > disks[o].near
+                    && rays.leaf[pos] != disks[o].leaf
+                    && disks[o].disk().crossed_by(rays.w(pos))
+                {
+                    want[pos] += 1;
                 }
             }
-            first = o.runs_end as usize;
         }
         assert!(want.iter().sum::<u32>() > 100, "the cases cross disks");
         assert_eq!(got, want);
@@ -496,13 +488,15 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx512_lanes_count_what_the_portable_lanes_count() {
-        if !std::arch::is_x86_feature_detected!("avx512f") {
+        if !(std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl"))
+        {
             return;
         }
-        let (disks, runs, rays) = hard_cases();
-        let portable = counts(|h| test_chunk(&disks, &runs, &rays, h));
+        let (disks, steps, rays) = hard_cases();
+        let portable = counts(|c| test_steps(&disks, &steps, &rays, c));
         // SAFETY: the CPU has AVX-512F.
-        let avx512 = counts(|h| unsafe { test_chunk_avx512(&disks, &runs, &rays, h) });
+        let avx512 = counts(|c| unsafe { test_steps_avx512(&disks, &steps, &rays, c) });
         assert_eq!(avx512, portable);
     }
 
@@ -512,10 +506,10 @@ mod tests {
         if !std::arch::is_x86_feature_detected!("avx2") {
             return;
         }
-        let (disks, runs, rays) = hard_cases();
-        let portable = counts(|h| test_chunk(&disks, &runs, &rays, h));
+        let (disks, steps, rays) = hard_cases();
+        let portable = counts(|c| test_steps(&disks, &steps, &rays, c));
         // SAFETY: the CPU has AVX2.
-        let avx2 = counts(|h| unsafe { test_chunk_avx2(&disks, &runs, &rays, h) });
+        let avx2 = counts(|c| unsafe { test_steps_avx2(&disks, &steps, &rays, c) });
         assert_eq!(avx2, portable);
     }
 }
