@@ -199,3 +199,24 @@ def test_a_users_file_where_the_lock_goes_is_refused_and_left_as_it_was(tmp_path
         with StoreLock(tmp_path / "out.zarr"):
             pass
     assert own.read_text() == "my notes\n"
+
+
+def test_a_users_folder_where_the_partial_store_goes_is_refused_and_left_as_it_was(tmp_path):
+    spec = tiny_spec(n_samples=2, pulses_per_sample=1, **{"output.chunk_size": 2})
+    own = tmp_path / "out.zarr.partial"
+    own.mkdir()
+    (own / "notes.txt").write_text("my notes\n")
+    with pytest.raises(DatasetError, match="out.zarr.partial"):
+        generate(spec, tmp_path / "out.zarr", workers=1, progress=False)
+    assert (own / "notes.txt").read_text() == "my notes\n"
+    assert not (tmp_path / "out.zarr").exists()
+
+
+def test_a_partial_store_left_by_a_killed_run_is_cleared_and_the_store_made(tmp_path):
+    from batecho.dataset.store import _lay_out
+
+    spec = tiny_spec(n_samples=2, pulses_per_sample=1, **{"output.chunk_size": 2})
+    _lay_out(tmp_path / "out.zarr.partial", spec, False)
+    generate(spec, tmp_path / "out.zarr", workers=1, progress=False)
+    assert verify(tmp_path / "out.zarr").n_chunks == 1
+    assert not (tmp_path / "out.zarr.partial").exists()

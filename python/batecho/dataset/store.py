@@ -491,12 +491,33 @@ def _create(store: StoreLike, spec: DatasetSpec, overwrite: bool = False) -> Any
         return _lay_out(store, spec, overwrite)
     path = Path(store)
     partial = path.with_name(path.name + ".partial")
+    if not _left_by_a_killed_run(partial):
+        raise DatasetError(
+            f"{partial} exists and is not a store left by a killed run; refusing to delete it "
+            f"(batecho dataset generate builds {path.name} there): move it or choose another path"
+        )
     shutil.rmtree(partial, ignore_errors=True)
     _lay_out(partial, spec, False)
     if path.exists():
         shutil.rmtree(path) if path.is_dir() else path.unlink()
     os.replace(partial, path)
     return _zarr().open_group(str(store), mode="r+", use_consolidated=False)
+
+
+def _left_by_a_killed_run(partial: Path) -> bool:
+    """Whether ``partial`` (``OUT.zarr.partial``) may be deleted: missing, an empty folder,
+    or a zarr hierarchy (a ``zarr.json`` and folders only), as a run killed while laying out
+    its store leaves it; not a file or a folder of anything else."""
+    if not partial.exists() and not partial.is_symlink():
+        return True
+    if partial.is_symlink() or not partial.is_dir():
+        return False
+    entries = list(partial.iterdir())
+    if not entries:
+        return True
+    return (partial / "zarr.json").is_file() and all(
+        e.name == "zarr.json" or (e.is_dir() and not e.is_symlink()) for e in entries
+    )
 
 
 def _lay_out(store: StoreLike, spec: DatasetSpec, overwrite: bool) -> Any:
