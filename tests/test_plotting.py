@@ -167,6 +167,14 @@ def test_plot_spectrogram_does_not_depend_on_the_echoes_scale(echoes, scale):
     plt.close("all")
 
 
+def test_plot_spectrogram_says_an_empty_lobe_is_exactly_zero(echoes):
+    """A silent pose's spectrogram was a black panel with nothing to say why."""
+    silent = int(np.flatnonzero(echoes.n_leaves == 0)[0])
+    fig = plot_spectrogram(echoes, silent)
+    assert "exactly zero" in fig.axes[0].get_title()
+    plt.close(fig)
+
+
 def test_plot_echo_image_uses_the_given_x(echoes, tmp_path):
     x = np.linspace(10.0, 70.0, len(echoes))
     fig = plot_echo_image(echoes, x=x, xlabel="angle (deg)", max_range_m=8.0)

@@ -397,7 +397,7 @@ def plot_spectrogram(
 ):
     """Spectrogram of the impulse response of pose ``index`` (``scipy.signal.spectrogram``,
     Hann segments of ``nperseg`` samples, 3/4 overlap), in dB re its largest value, 60 dB
-    shown.
+    shown; a pose whose impulse response is exactly zero says so in the title.
 
     The frequency axis spans the band and ``margin_hz`` on either side (default a quarter of
     the band's width; finite and >= 0): the record holds nothing outside the band. The
@@ -438,6 +438,8 @@ def plot_spectrogram(
     ax.set_ylim(max(0.0, f_lo - pad) / 1e3, min(echoes.sonar.fs / 2, f_hi + pad) / 1e3)
     ax.set_xlabel("time (ms)")
     ax.set_ylabel("frequency (kHz)")
+    if not peak > 0:
+        ax.set_title(f"pose {index}: no echo (the impulse response is exactly zero)", fontsize=10)
     (fig or ax.figure).colorbar(im, ax=ax, label="power (dB re max)")
     return fig or ax.figure
 
