@@ -189,3 +189,14 @@ def test_ears_that_are_not_two_receiver_indices_are_refused_naming_them(sweep, c
     # (NumPy's IndexError, or an unpacking error, named neither ears nor what they must be)
     with pytest.raises(TypeError, match="ears must be two int receiver indices"):
         cue(sweep[0], ears=ears)
+
+
+def test_the_two_ear_echo_images_refuse_x_that_is_not_finite_naming_x(sweep):
+    import matplotlib.pyplot as plt
+
+    from batecho.outputs.binaural import plot_binaural_echo_images
+
+    e, yaw = sweep
+    with pytest.raises(ValueError, match="x must be finite"):
+        plot_binaural_echo_images(e, x=np.where(np.arange(len(e)) == 2, np.inf, yaw))
+    plt.close("all")

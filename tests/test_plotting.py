@@ -215,6 +215,15 @@ def test_plot_echo_image_rejects_x_of_the_wrong_length(echoes):
         plot_echo_image(echoes, x=[1.0, 2.0])
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_plot_echo_image_refuses_x_that_is_not_finite_naming_x(echoes, bad):
+    x = np.arange(len(echoes), dtype=np.float64)
+    x[1] = bad
+    with pytest.raises(ValueError, match="x must be finite"):
+        plot_echo_image(echoes, x=x)
+    plt.close("all")
+
+
 def test_plot_echo_image_of_silent_pulses_only(box, sonar, tmp_path):
     away = batecho.Poses([[-2.0, 0.0, 0.0], [-3.0, 0.0, 0.0]], [-1.0, 0.0, 0.0])
     e = batecho.simulate(box, sonar, away)

@@ -68,6 +68,8 @@ def plot_binaural_echo_images(
     xs = np.arange(p, dtype=np.float64) if x is None else np.asarray(x, dtype=np.float64)
     if xs.shape != (p,):
         raise ValueError(f"x must have one value per pulse ({p}), got shape {xs.shape}")
+    if not np.all(np.isfinite(xs)):
+        raise ValueError(f"x must be finite (pulse {int(np.argmin(np.isfinite(xs)))})")
     order = np.argsort(xs, kind="stable")
     if p > 1 and not np.all(np.diff(xs[order]) > 0):
         raise ValueError("x must have distinct values")
