@@ -200,3 +200,11 @@ def test_the_two_ear_echo_images_refuse_x_that_is_not_finite_naming_x(sweep):
     with pytest.raises(ValueError, match="x must be finite"):
         plot_binaural_echo_images(e, x=np.where(np.arange(len(e)) == 2, np.inf, yaw))
     plt.close("all")
+
+
+@pytest.mark.parametrize("index", [5, -6])
+def test_the_two_ear_impulses_refuse_a_pose_index_out_of_range_naming_it(sweep, index):
+    from batecho.outputs.binaural import plot_binaural_impulses
+
+    with pytest.raises(ValueError, match=f"pose index {index} out of range"):
+        plot_binaural_impulses(sweep[0], index)

@@ -12,7 +12,7 @@ import numpy as np
 from .._validate import positive_scalar
 from ..echoes.binaural import interaural_level_difference, interaural_time_difference
 from ..echoes.simulate import samples_within
-from .plots import _db, _edges, _plt, plot_impulse
+from .plots import _db, _edges, _plt, _pose, plot_impulse
 
 __all__ = ["plot_binaural_echo_images", "plot_binaural_impulses", "plot_interaural_differences"]
 
@@ -35,6 +35,7 @@ def plot_binaural_impulses(echoes, index: int = 0, max_range_m: float | None = N
     """The impulse responses of pose ``index`` at each receiver, side by side, on one
     amplitude scale."""
     _check(echoes)
+    index = _pose(echoes, index)
     plt = _plt()
     r = echoes.n_receivers
     fig, axes = plt.subplots(1, r, figsize=(5 * r, 3.4), sharey=True, constrained_layout=True)
