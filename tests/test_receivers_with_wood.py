@@ -207,3 +207,20 @@ def test_two_ears_hear_a_trunk_at_the_delay_of_their_paths():
         r_rx = math.hypot(4.9, rx.offset_m[1])
         want = (4.9 + r_rx) / ears.sound_speed
         assert abs(echo.times[int(np.argmax(env[j]))] - want) <= 2.0 / ears.fs
+
+
+def test_echoes_built_without_n_pieces_have_a_receiver_axis_on_it():
+    leaves = Leaves([[3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02])
+    echoes = batecho.simulate(
+        leaves, Sonar.binaural(0.02, 10.0), batecho.look_at([0, 0, 0], [1, 0, 0])
+    )
+    built = batecho.Echoes(
+        spectrum=echoes.spectrum,
+        freqs=echoes.freqs,
+        impulse=echoes.impulse,
+        times=echoes.times,
+        n_leaves=echoes.n_leaves,
+        sonar=echoes.sonar,
+        poses=echoes.poses,
+    )
+    assert built.n_pieces.shape == echoes.n_leaves.shape

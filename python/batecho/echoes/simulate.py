@@ -64,9 +64,8 @@ class Echoes:
     n_shaded: np.ndarray | None = None
 
     def __post_init__(self):
-        p = self.spectrum.shape[0]
         if self.n_pieces is None:
-            object.__setattr__(self, "n_pieces", np.zeros(p, dtype=np.int64))
+            object.__setattr__(self, "n_pieces", np.zeros(self.n_leaves.shape, dtype=np.int64))
         if self.n_shaded is None:
             object.__setattr__(self, "n_shaded", np.zeros(self.n_leaves.shape, dtype=np.int64))
 
