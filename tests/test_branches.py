@@ -277,3 +277,17 @@ def test_a_trunk_far_longer_than_the_lobe_counts_the_reference_pieces(ears):
 def test_a_branch_radius_beyond_the_largest_coordinate_is_refused_naming_it():
     with pytest.raises(ValueError, match="radii must be at most 1e\\+15 m; branch 0"):
         Branches([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], [1e300])
+
+
+@pytest.mark.parametrize(
+    ("kw", "needle"),
+    [
+        ({"scale": 1e300}, "scale=1e\\+300"),
+        ({"translation": (1e20, 0.0, 0.0)}, "beyond 1e\\+15 m"),
+        ({"scale": 1e-300}, "zero length"),
+    ],
+)
+def test_transformed_refuses_segments_moved_out_of_bounds_by_name(kw, needle):
+    branches = Branches([[2.0, -1.0, 0.0]], [[2.0, 1.0, 0.0]], [0.05])
+    with pytest.raises(ValueError, match=needle):
+        branches.transformed(**kw)

@@ -123,9 +123,12 @@ class Branches(ReadOnlyOnLoading):
         s = float(scale)
         if not (np.isfinite(s) and s > 0):
             raise ValueError(f"scale must be finite and > 0, got {scale}")
-        return Branches._trusted(
-            s * (self._starts @ R.T) + t, s * (self._ends @ R.T) + t, self._radii * s
-        )
+        with np.errstate(over="ignore", under="ignore"):
+            moved = (s * (self._starts @ R.T) + t, s * (self._ends @ R.T) + t, self._radii * s)
+        try:
+            return Branches(*moved)  # checked again: a scale or shift may leave the bounds
+        except ValueError as exc:
+            raise ValueError(f"the segments moved by scale={s:g}, translation={t}: {exc}") from None
 
     @staticmethod
     def concatenate(parts: Iterable[Branches]) -> Branches:
