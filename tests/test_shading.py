@@ -290,3 +290,18 @@ def test_branches_and_shading_are_bit_identical_with_one_and_two_threads(tmp_pat
     for k in one:
         assert one[k].tobytes() == two[k].tobytes(), k
     assert one["True-fast-shaded"].min() > 1000
+
+
+def test_a_numpy_bool_branches_block_is_kept_as_the_python_bool():
+    shading = Shading(branches_block=np.False_)
+    assert shading == Shading(branches_block=False)
+    assert shading.branches_block is False
+
+
+def test_leaf_sights_takes_a_numpy_bool_branches_block_as_the_python_bool():
+    scene = Scene(
+        Leaves([[3.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [0.02]),
+        branches=Branches([[2.0, -1.0, 0.0]], [[2.0, 1.0, 0.0]], [0.05]),
+    )
+    got = leaf_sights(scene, WIDE, ORIGIN, branches_block=np.False_)
+    assert not got.blocked.any()

@@ -381,11 +381,17 @@ def leaf_sights(
     if len(pose) != 1:
         raise ValueError(f"leaf_sights takes one pose; got {len(pose)} (index it: poses[i])")
     refuse_receivers(sonar, "leaf_sights")
-    if not isinstance(branches_block, bool):
+    if not isinstance(branches_block, (bool, np.bool_)):
         raise TypeError(f"branches_block must be True or False, got {branches_block!r}")
     sc = as_scene(scene)
     ids, crossings, blocked = _core.leaf_sights(
-        sc._core, sonar._core, pose.positions, pose.forward, pose.up, pose.left, branches_block
+        sc._core,
+        sonar._core,
+        pose.positions,
+        pose.forward,
+        pose.up,
+        pose.left,
+        bool(branches_block),
     )
     return LeafSights(ids, crossings.astype(np.int64), blocked)
 
