@@ -291,3 +291,9 @@ def test_transformed_refuses_segments_moved_out_of_bounds_by_name(kw, needle):
     branches = Branches([[2.0, -1.0, 0.0]], [[2.0, 1.0, 0.0]], [0.05])
     with pytest.raises(ValueError, match=needle):
         branches.transformed(**kw)
+
+
+def test_a_branch_whose_length_underflows_is_not_said_to_start_at_its_end():
+    with pytest.raises(ValueError, match="zero length") as caught:
+        Branches([[2.0, 0.0, 0.0]], [[2.0, 1e-200, 0.0]], [0.05])
+    assert "equals" not in str(caught.value)

@@ -60,7 +60,12 @@ class Branches(ReadOnlyOnLoading):
         length = norms(e - s)
         if not (length > 0).all():
             i = int(np.argmax(~(length > 0)))
-            raise ValueError(f"branch {i} has zero length (start {s[i]} equals end {e[i]})")
+            why = (
+                f"start {s[i]} equals end {e[i]}"
+                if (s[i] == e[i]).all()
+                else f"start {s[i]} and end {e[i]} are so near that it underflows"
+            )
+            raise ValueError(f"branch {i} has zero length ({why})")
         self._starts = readonly(s)
         self._ends = readonly(e)
         self._radii = readonly(r)
