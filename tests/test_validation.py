@@ -136,3 +136,23 @@ def test_every_beam_parameter_is_named_when_refused(kwargs, named):
 def test_an_entry_that_is_not_finite_is_named_by_plain_indices():
     with pytest.raises(ValueError, match=r"centers must be finite; entry \(1, 2\) is nan"):
         Leaves([[2.0, 0.0, 0.0], [3.0, 0.0, np.nan]], [[1.0, 0.0, 0.0]] * 2, [0.02, 0.02])
+
+
+@pytest.mark.parametrize("f_khz", [70e3, -1.0, 40.0, 100.0])
+def test_a_horseshoe_frequency_outside_its_fit_is_refused_naming_f_khz(f_khz):
+    with pytest.raises(ValueError, match=r"f_khz .*48\.4 to 94\.3 kHz"):
+        Sonar.horseshoe_bat(f_khz)
+
+
+def test_a_horseshoe_frequency_of_nan_is_refused_naming_f_khz():
+    with pytest.raises(ValueError, match="f_khz must be finite"):
+        Sonar.horseshoe_bat(float("nan"))
+
+
+def test_a_horseshoe_frequency_that_is_not_a_number_is_refused_naming_f_khz():
+    with pytest.raises(TypeError, match="f_khz"):
+        Sonar.horseshoe_bat("70")
+
+
+def test_a_horseshoe_frequency_inside_its_fit_gives_the_fits_beamwidth():
+    assert Sonar.horseshoe_bat(70.0).beamwidth_deg == pytest.approx(37.7, abs=0.05)

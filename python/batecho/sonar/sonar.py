@@ -308,8 +308,16 @@ class Sonar(MadeAgainOnLoading):
     @classmethod
     def horseshoe_bat(cls, f_khz: float = 70.0, **kwargs) -> Sonar:
         """A sonar whose beamwidth is the horseshoe-bat fit ``BW(f)`` at ``f_khz`` (one value for
-        the whole band, as the authors did)."""
-        return cls(beamwidth_deg=horseshoe_bat_beamwidth_deg(f_khz), **kwargs)
+        the whole band, as the authors did). The fit gives a beamwidth in (0, 180) deg from
+        about 48.4 to 94.3 kHz; a frequency outside it is refused."""
+        f = finite_scalar(f_khz, "f_khz", strict=True)
+        bw = horseshoe_bat_beamwidth_deg(f)
+        if not 0.0 < bw < 180.0:
+            raise ValueError(
+                f"f_khz = {f:g}: the horseshoe-bat fit gives a beamwidth of {bw:.6g} deg there, "
+                "not in (0, 180); it gives one from about 48.4 to 94.3 kHz (f_khz is in kHz)"
+            )
+        return cls(beamwidth_deg=bw, **kwargs)
 
     def _init_parameters(self) -> dict[str, Any]:
         """The keyword arguments that make this sonar again (for ``replace`` and pickling;
