@@ -88,3 +88,15 @@ def test_a_bad_call_is_refused_before_anything_is_written(tmp_path, capsys):
     assert main(["simulate", str(path), "--out", str(tmp_path / "o"), "-q"]) == 2
     assert "[call] f_start_hz" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_a_number_that_is_not_finite_is_refused_as_not_finite(value):
+    msg = refused(SCENE + f"[sonar]\nbeamwidth_deg = {value}\n" + FLIGHT + OUTPUT)
+    assert f"[sonar] beamwidth_deg: must be finite, got {float(value)}" in msg
+
+
+def test_a_radius_that_is_not_finite_is_refused_as_not_finite():
+    flight = FLIGHT.replace("radius = 6.2", "radius = nan")
+    msg = refused(SCENE + SONAR + flight + OUTPUT)
+    assert '[flight] radius: must be finite (or "clear"), got nan' in msg

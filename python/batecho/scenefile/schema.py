@@ -366,8 +366,10 @@ def _points(v: Any, dim: int, where: str, key: str) -> list[list[float]]:
 def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
     k = opt.kind
     if k == "float":
-        if not _is_num(v) or not math.isfinite(float(v)):
+        if not _is_num(v):
             raise _fail(where, key, f"expected a number, got {v!r} ({_tname(v)})")
+        if not math.isfinite(float(v)):
+            raise _fail(where, key, f"must be finite, got {v!r}")
         return float(v)
     if k == "int":
         if isinstance(v, bool) or not isinstance(v, int):
@@ -411,8 +413,10 @@ def _check_value(opt: _Opt, v: Any, where: str, key: str) -> Any:
     if k == "float_or_clear":
         if v == "clear":
             return v
-        if not _is_num(v) or not math.isfinite(float(v)):
+        if not _is_num(v):
             raise _fail(where, key, f'expected a number or "clear", got {v!r} ({_tname(v)})')
+        if not math.isfinite(float(v)):
+            raise _fail(where, key, f'must be finite (or "clear"), got {v!r}')
         return float(v)
     if k == "float_or_pair":
         if _is_num(v):
