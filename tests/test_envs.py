@@ -410,3 +410,11 @@ def test_an_action_of_the_wrong_shape_is_refused_by_name():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action"):
         env.step(np.zeros((1, 4)))
+
+
+@pytest.mark.parametrize("action", ["up", [0, 0, 0, "x"], {"forward": 1.0}, [1j, 0, 0, 0]])
+def test_an_action_that_is_not_numbers_is_refused_by_name_as_a_value_error(action):
+    env = EchoFlightEnv(**{**SMALL, "density": 0.0})
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action must be 4 finite numbers"):
+        env.step(action)

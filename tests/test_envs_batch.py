@@ -276,3 +276,11 @@ def test_a_refused_batch_step_leaves_an_ended_environment_to_be_reset_once():
         runs.append(batch.step(hover)[0])
     for key in runs[0]:
         assert np.array_equal(runs[0][key], runs[1][key])
+
+
+@pytest.mark.parametrize("actions", ["up", [[0, 0, 0, "x"]] * 2, {"forward": 1.0}])
+def test_the_batch_refuses_actions_that_are_not_numbers_by_name(actions):
+    batch = EchoFlightVectorEnv(2, **{**SMALL, "density": 0.0})
+    batch.reset(seed=0)
+    with pytest.raises(ValueError, match="actions must be"):
+        batch.step(actions)

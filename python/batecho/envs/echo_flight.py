@@ -454,7 +454,10 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
 
     def command(self, action: Any) -> tuple[np.ndarray, float]:
         """The world velocity (3,) m/s and yaw rate (rad/s) that ``action`` commands now."""
-        a = np.asarray(action, dtype=np.float64)
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            a = np.full(0, np.nan)  # not numbers: refused below
         if a.shape != (4,) or not np.all(np.isfinite(a)):
             raise ValueError(f"action must be 4 finite numbers, shape (4,), got {action!r}")
         u = np.clip(a, -1.0, 1.0) * self.scales
