@@ -305,3 +305,24 @@ def test_leaf_sights_takes_a_numpy_bool_branches_block_as_the_python_bool():
     )
     got = leaf_sights(scene, WIDE, ORIGIN, branches_block=np.False_)
     assert not got.blocked.any()
+
+
+def test_tiny_leaves_in_a_plane_through_the_sonar_are_shaded_without_a_huge_light_buffer():
+    # their directions have a box of no area: the buffer's cells were sized by their tiny
+    # angular radius alone (about 1e12 cells, and the process aborted)
+    n = 300
+    rng = np.random.default_rng(0)
+    centers = np.column_stack([np.full(n, 3.0), np.linspace(-1.0, 1.0, n), np.zeros(n)])
+    leaves = Leaves(centers, rng.normal(size=(n, 3)), np.full(n, 1e-12))
+    sonar = Sonar(min_ka=0.0, shading=Shading())
+    echoes = batecho.simulate(Scene(leaves), sonar, batecho.look_at([0, 0, 0], [1, 0, 0]))
+    assert echoes.n_leaves[0] == n
+
+
+def test_a_thin_branch_in_a_plane_through_the_sonar_is_shaded_without_a_huge_light_buffer():
+    branch = Branches([[2.0, -1.0, 0.0]], [[2.0, 1.0, 0.0]], [1e-12])
+    sonar = Sonar(min_ka=0.0, shading=Shading())
+    echoes = batecho.simulate(
+        Scene(None, branches=branch), sonar, batecho.look_at([0, 0, 0], [1, 0, 0])
+    )
+    assert echoes.n_pieces[0] > 0

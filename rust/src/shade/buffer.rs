@@ -175,7 +175,7 @@ fn disk_slopes(vb: f64, z: f64, nb: f64, na: f64, a: f64) -> (f64, f64) {
 
 impl Buffer {
     /// Bin the targets at `w` (their rays, relative to the sonar) in cells about `h_hint`
-    /// wide (gnomonic units), at most about two cells per target.
+    /// wide (gnomonic units), at most about four cells per target (and 8,198 more).
     pub(super) fn new(w: &[V3], h_hint: f64) -> Buffer {
         let n = w.len();
         let at: Vec<(usize, f64, f64)> = w.par_iter().map(|&w| face_of(w)).collect();
@@ -194,8 +194,16 @@ impl Buffer {
             .filter(|b| b.0 <= b.1)
             .map(|b| (b.1 - b.0) * (b.3 - b.2))
             .sum();
+        let sides: f64 = bbox
+            .iter()
+            .filter(|b| b.0 <= b.1)
+            .map(|b| (b.1 - b.0) + (b.3 - b.2))
+            .sum();
+        // A face has at most (du / h + 1)(dv / h + 1) = du dv / h^2 + (du + dv) / h + 1 cells:
+        // h bounded below by both the area's and the sides' share keeps the cells within
+        // 2 max_cells + 6, a box flat or thin (targets in a plane through the sonar) included.
         let max_cells = (2 * n + 4096) as f64;
-        let mut h = h_hint.max((area / max_cells).sqrt());
+        let mut h = h_hint.max((area / max_cells).sqrt()).max(sides / max_cells);
         if !(h > 0.0 && h.is_finite()) {
             h = 1.0;
         }
@@ -489,6 +497,22 @@ mod tests {
             }
             assert!(crossed > 1000, "the disks are crossed ({crossed})");
         }
+    }
+
+    #[test]
+    fn targets_in_a_plane_through_the_sonar_get_few_cells_however_fine_the_hint() {
+        // a line of targets at x = 3, z = 0: their box on the +x face has no area
+        let n = 1000;
+        let targets: Vec<V3> = (0..n)
+            .map(|i| [3.0, -1.0 + 2.0 * i as f64 / n as f64, 0.0])
+            .collect();
+        let buf = Buffer::new(&targets, 1e-12);
+        assert!(
+            buf.n_cells() <= 2 * (2 * n + 4096) + 6,
+            "{} cells",
+            buf.n_cells()
+        );
+        assert_eq!(cells_of_targets(&buf, n).len(), n);
     }
 
     #[test]
