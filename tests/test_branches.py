@@ -297,3 +297,11 @@ def test_a_branch_whose_length_underflows_is_not_said_to_start_at_its_end():
     with pytest.raises(ValueError, match="zero length") as caught:
         Branches([[2.0, 0.0, 0.0]], [[2.0, 1e-200, 0.0]], [0.05])
     assert "equals" not in str(caught.value)
+
+
+def test_a_pose_on_a_branchs_surface_is_said_to_be_0_m_from_it_not_minus_0():
+    on_surface = Branches([[-1.0, 0.2, 0.0]], [[1.0, 0.2, 0.0]], [0.2])
+    with pytest.raises(ValueError, match="lies inside branch 0 or on its surface") as err:
+        wood(on_surface, Sonar())
+    assert "-0.000" not in str(err.value)
+    assert "0.000e0 m away" in str(err.value)

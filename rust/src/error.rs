@@ -73,9 +73,10 @@ impl fmt::Display for Error {
             ),
             Error::BranchTooClose { pose, branch, range, min_range } if *range <= 0.0 => write!(
                 f,
-                "pose {pose} lies inside branch {branch} (its surface is {:.3e} m away, min_range_m = {min_range} m); \
+                "pose {pose} lies inside branch {branch} or on its surface (its side is {:.3e} m away, min_range_m = {min_range} m); \
                  move the pose, or pass too_close=\"skip\" to leave such pieces out",
-                -range
+                // (`abs`, so that a pose on the surface reads 0, not -0)
+                range.abs()
             ),
             Error::BranchTooClose { pose, branch, range, min_range } => write!(
                 f,
