@@ -133,6 +133,18 @@ def test_plot_spectrum_writes_png(echoes, tmp_path):
     assert _png_ok(plot_spectrum(echoes, 1), tmp_path / "spectrum.png")
 
 
+def test_plot_spectrum_of_a_single_bin_marks_its_one_point(box, poses):
+    # (a line through one point draws nothing)
+    one_bin = batecho.simulate(
+        box, batecho.Sonar(beamwidth_deg=30, band_hz=(70e3, 70e3 + 1)), poses
+    )
+    assert one_bin.spectrum.shape[1] == 1
+    fig = plot_spectrum(one_bin, 1)
+    (line,) = fig.axes[0].get_lines()
+    assert line.get_marker() not in (None, "None", "", " ")
+    plt.close(fig)
+
+
 def test_plot_spectrogram_writes_png(echoes, tmp_path):
     assert _png_ok(plot_spectrogram(echoes, 1), tmp_path / "spectrogram.png")
 

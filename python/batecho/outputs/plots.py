@@ -194,7 +194,8 @@ def plot_spectrum(echoes, index: int = 0, ax=None):
         fig, ax = plt.subplots(figsize=(6, 3), constrained_layout=True)
     mag = np.abs(echoes.spectrum[index])
     db = _db(mag, float(mag.max()))
-    ax.plot(echoes.freqs / 1e3, db, lw=0.8)
+    # (a marker where there is one bin: a line of one point draws nothing)
+    ax.plot(echoes.freqs / 1e3, db, lw=0.8, marker="o" if db.size == 1 else None)
     ax.set_xlabel("frequency (kHz)")
     ax.set_ylabel("|Y| (dB re max)")
     finite = db[np.isfinite(db)]
