@@ -4,6 +4,7 @@ silent NaN; and nothing the caller passed is modified."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -325,3 +326,24 @@ def test_coordinates_beyond_the_bvh_range_are_refused():
 def test_scene_accepts_leaves_only():
     with pytest.raises(TypeError, match="Leaves"):
         Scene(np.zeros((3, 3)))
+
+
+@pytest.mark.parametrize(
+    "sonar, shown",
+    [
+        (dict(min_ka=1e300), "min_ka = 1.000e300"),
+        (dict(min_range_m=1e300), "min_range_m = 1.000e300 m"),
+    ],
+)
+def test_an_absurd_min_ka_or_min_range_is_named_in_few_digits(sonar, shown):
+    leaf = Leaves([[0.0, 0.0, 3.0]], [[0.0, 0.0, 1.0]], [0.03])
+    with pytest.raises(ValueError, match=shown) as err:
+        simulate(Scene(leaf), Sonar(**sonar), Poses([0.0, 0, 0], [0.0, 0, 1], [1.0, 0, 0]))
+    assert not re.search(r"\d{20}", str(err.value)), str(err.value)
+
+
+def test_a_tiny_k_a_is_named_in_exponent_form_not_as_zero():
+    leaf = Leaves([[0.0, 0.0, 3.0]], [[0.0, 0.0, 1.0]], [1e-7])
+    with pytest.raises(ValueError, match=r"k a = \d\.\d{3}e-\d") as err:
+        simulate(Scene(leaf), Sonar(), Poses([0.0, 0, 0], [0.0, 0, 1], [1.0, 0, 0]))
+    assert "k a = 0.0000" not in str(err.value)

@@ -56,33 +56,38 @@ impl fmt::Display for Error {
                 f,
                 "leaf {leaf} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \
                  the far-field echo model does not hold there (move the pose, lower min_range_m, \
-                 or pass too_close=\"skip\" to leave such leaves out)"
+                 or pass too_close=\"skip\" to leave such leaves out)",
+                min_range = short(*min_range)
             ),
             Error::TooCloseToReceiver { pose, receiver, leaf, range, min_range } => write!(
                 f,
                 "leaf {leaf} is {range:.3e} m from receiver {receiver} of pose {pose}, closer than \
                  min_range_m = {min_range} m; the far-field echo model does not hold there (move \
-                 the receiver or the pose, lower min_range_m, or pass too_close=\"skip\")"
+                 the receiver or the pose, lower min_range_m, or pass too_close=\"skip\")",
+                min_range = short(*min_range)
             ),
             Error::BranchTooCloseToReceiver { pose, receiver, branch, range, min_range } => write!(
                 f,
                 "branch {branch} is {range:.3e} m from receiver {receiver} of pose {pose} (inside \
                  it where negative or zero), closer than min_range_m = {min_range} m; the \
                  far-field echo model does not hold there (move the receiver or the pose, lower \
-                 min_range_m, or pass too_close=\"skip\" to leave such pieces out)"
+                 min_range_m, or pass too_close=\"skip\" to leave such pieces out)",
+                min_range = short(*min_range)
             ),
             Error::BranchTooClose { pose, branch, range, min_range } if *range <= 0.0 => write!(
                 f,
                 "pose {pose} lies inside branch {branch} or on its surface (its side is {:.3e} m away, min_range_m = {min_range} m); \
                  move the pose, or pass too_close=\"skip\" to leave such pieces out",
                 // (`abs`, so that a pose on the surface reads 0, not -0)
-                range.abs()
+                range.abs(),
+                min_range = short(*min_range)
             ),
             Error::BranchTooClose { pose, branch, range, min_range } => write!(
                 f,
                 "branch {branch} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \
                  the far-field echo model does not hold there (move the pose, lower min_range_m, \
-                 or pass too_close=\"skip\" to leave such pieces out)"
+                 or pass too_close=\"skip\" to leave such pieces out)",
+                min_range = short(*min_range)
             ),
         }
     }
@@ -91,6 +96,26 @@ impl fmt::Display for Error {
 impl std::error::Error for Error {}
 
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// A number for a message: as given where it is near 1 (`1e-4 <= |x| < 1e12`, or 0), else in
+/// a few digits (an absurd value would print hundreds).
+pub(crate) fn short(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e12).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// A computed number for a message, in four digits: fixed where it is near 1
+/// (`1e-3 <= |x| < 1e6`, or 0), else in exponent form (a tiny `k a` would read 0.0000).
+pub(crate) fn four_digits(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
 
 /// Shorthand for an `InvalidInput` error.
 pub(crate) fn invalid<T>(msg: impl Into<String>) -> Result<T> {

@@ -10,7 +10,7 @@ pub mod scatter;
 use crate::budget;
 use crate::echo::impulse::impulse_from_band;
 use crate::echo::spectrum::band_spectrum;
-use crate::error::{invalid, Result};
+use crate::error::{four_digits, invalid, short, Result};
 use crate::fast::pulse::fast_pulse;
 use crate::fast::FastSonar;
 use crate::fast::{band_tightening, fast_band_spectrum, FastPlan};
@@ -48,11 +48,11 @@ pub fn check_leaf_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
     if k_lo * a < sonar.params.min_ka {
         let i = scene.ids[i];
         return invalid(format!(
-            "leaf {i} has radius {a:e} m, so k a = {:.4} at the band's lowest frequency {} Hz, below min_ka = {}; \
+            "leaf {i} has radius {a:e} m, so k a = {} at the band's lowest frequency {} Hz, below min_ka = {}; \
              the leaf models are not valid that small (remove such leaves or lower min_ka knowingly)",
-            k_lo * a,
-            sonar.freqs[0],
-            sonar.params.min_ka
+            four_digits(k_lo * a),
+            short(sonar.freqs[0]),
+            short(sonar.params.min_ka)
         ));
     }
     Ok(())

@@ -2,7 +2,7 @@
 //! into pieces by the rule of [`max_piece_length`] at its nearest distance, and each piece goes
 //! through the leaves' exact lobe test at its reference point (the near surface at its centre).
 use crate::budget;
-use crate::error::{Error, Result};
+use crate::error::{short, Error, Result};
 use crate::lobe::bound::{test_box, AngularBound, BoxTest};
 use crate::lobe::rule::{classify, Decision};
 use crate::math::vec3::V3;
@@ -182,14 +182,6 @@ fn segment_pieces(
 /// term and a shading target.
 pub(crate) fn check_pieces(bound: f64, sonar: &Sonar, pose_index: usize) -> Result<()> {
     let threads = rayon::current_num_threads();
-    // (numbers far from 1 in a few digits: an absurd scale would print hundreds)
-    let short = |x: f64| {
-        if x == 0.0 || (1e-4..1e12).contains(&x.abs()) {
-            format!("{x}")
-        } else {
-            format!("{x:.3e}")
-        }
-    };
     budget::check(
         bound * budget::BYTES_PER_PIECE * threads as f64,
         || {

@@ -8,7 +8,7 @@
 //! transmission of 1 with no branch in the way gives the unshaded echo bit for bit.
 use super::{cost_exact, cost_fast, fused_plan, leaf_pose, Method};
 use crate::echo::{branch_term, leaf_term, sum_branch_terms, sum_terms, BranchTerm, LeafTerm};
-use crate::error::{invalid, Result};
+use crate::error::{four_digits, invalid, short, Result};
 use crate::fast::pulse::fast_pulse;
 use crate::fast::{fast_branch_spectrum, fast_sum_terms, FastPlan, FastSonar, MIN_TOL};
 use crate::lobe::candidates::Candidates;
@@ -74,11 +74,11 @@ pub fn check_branch_sizes(scene: &Scene, sonar: &Sonar) -> Result<()> {
     let (i, a) = br.smallest;
     if k_lo * a < sonar.params.min_ka {
         return invalid(format!(
-            "branch {i} has radius {a:e} m, so k a = {:.4} at the band's lowest frequency {} Hz, below min_ka = {}; \
+            "branch {i} has radius {a:e} m, so k a = {} at the band's lowest frequency {} Hz, below min_ka = {}; \
              the cylinder model is not valid that thin (leave such twigs out of the branches or lower min_ka knowingly)",
-            k_lo * a,
-            sonar.freqs[0],
-            sonar.params.min_ka
+            four_digits(k_lo * a),
+            short(sonar.freqs[0]),
+            short(sonar.params.min_ka)
         ));
     }
     Ok(())
