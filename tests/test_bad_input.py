@@ -104,6 +104,12 @@ def test_band_above_nyquist_is_refused():
         Sonar(fs=150e3)
 
 
+def test_a_hann_window_over_one_band_bin_is_refused():
+    # the periodic Hann window of length 1 is 0: every echo would be silently zero
+    with pytest.raises(ValueError, match="one band bin.*window='rect'"):
+        Sonar(band_hz=(70e3, 70e3 + 1))
+
+
 @pytest.mark.parametrize("bw", [0.0, -5.0, 180.0, 200.0, np.nan])
 def test_beamwidth_outside_zero_to_180_is_refused(bw):
     with pytest.raises(ValueError, match="beamwidth_deg"):

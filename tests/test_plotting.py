@@ -136,7 +136,7 @@ def test_plot_spectrum_writes_png(echoes, tmp_path):
 def test_plot_spectrum_of_a_single_bin_marks_its_one_point(box, poses):
     # (a line through one point draws nothing)
     one_bin = batecho.simulate(
-        box, batecho.Sonar(beamwidth_deg=30, band_hz=(70e3, 70e3 + 1)), poses
+        box, batecho.Sonar(beamwidth_deg=30, band_hz=(70e3, 70e3 + 1), window="rect"), poses
     )
     assert one_bin.spectrum.shape[1] == 1
     fig = plot_spectrum(one_bin, 1)

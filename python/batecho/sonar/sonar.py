@@ -233,6 +233,7 @@ class Sonar(MadeAgainOnLoading):
         if self.absorption is not None:
             a = self.absorption
             atm = (float(a.temperature_c), float(a.relative_humidity), float(a.pressure_pa))
+        n_record = self._provisional_n() if auto else int(self.n_samples)
         core = _core.Sonar(
             beam._core_tuple(),
             None if self.receiver is None else self.receiver._core_tuple(),
@@ -244,7 +245,7 @@ class Sonar(MadeAgainOnLoading):
             cone,
             max_range,
             fs,
-            self._provisional_n() if auto else int(self.n_samples),
+            n_record,
             f_lo,
             f_hi,
             num["sound_speed"],
@@ -260,6 +261,13 @@ class Sonar(MadeAgainOnLoading):
             None if self.shading is None else self.shading._core_tuple(),
             scale,
         )
+        k0, k1 = core.bins
+        if self.window == "hann" and k0 == k1:
+            raise ValueError(
+                f"band_hz = {self.band_hz!r} holds one band bin (bin {k0} of a record of "
+                f"{n_record} samples), where the periodic Hann window is 0: every echo would be "
+                "zero; widen the band, lengthen the record (n_samples) or pass window='rect'"
+            )
         object.__setattr__(self, "_core", core)
         object.__setattr__(self, "_resolved", {})
 
