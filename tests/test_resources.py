@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pytest
 from _isolated import call_in_child
 
@@ -205,3 +206,16 @@ def test_branches_sharing_one_end_point_by_the_thousand_are_refused_before_they_
 def test_an_input_array_too_large_to_copy_is_a_memory_error_naming_it(body, name):
     # a broadcast view costs nothing; its float64 copy would be tens of GiB
     refused(body, "MemoryError", name, "set_memory_limit")
+
+
+@pytest.mark.parametrize("make", [batecho.Poses, batecho.look_at])
+def test_poses_whose_frames_need_more_than_the_limit_are_refused_before_they_are_built(make):
+    # each (p, 3) copy (24 MB) is under the limit, but the frames and their temporaries are
+    # about ten such arrays (over 200 MB)
+    positions = np.broadcast_to([0.0, 0.0, 0.0], (10**6, 3))
+    batecho.set_memory_limit(32 * 2**20)
+    try:
+        with pytest.raises(MemoryError, match="1000000 poses.*in pieces"):
+            make(positions, [1.0, 0.0, 0.0])
+    finally:
+        batecho.set_memory_limit(None)

@@ -8,8 +8,21 @@ import numpy as np
 
 from .._geometry import crosses, dots, norms
 from .._pickle import ReadOnlyOnLoading
-from .._resources import check_copies
+from .._resources import check_copies, check_memory
 from .._validate import readonly, real_array, unit_rows, vectors
+
+#: What building the frames of one pose takes at its peak (bytes): the copies, the frames and
+#: the temporaries of :class:`Poses` (measured 209-233), and of :func:`look_at` before them.
+BUILD_BYTES_PER_POSE = 256.0
+LOOK_AT_BYTES_PER_POSE = 96.0
+
+
+def _check_build(p: int, extra: float = 0.0) -> None:
+    check_memory(
+        p * (BUILD_BYTES_PER_POSE + extra),
+        f"the frames of {p} poses",
+        "make the poses in pieces and simulate each",
+    )
 
 
 class Poses(ReadOnlyOnLoading):
@@ -37,6 +50,7 @@ class Poses(ReadOnlyOnLoading):
         p = pos.shape[0]
         if p == 0:
             raise ValueError("Poses needs at least one pose; got empty arrays")
+        _check_build(p)
         f = vectors(forward, "forward", p)
         u = vectors(up, "up", p)
         d = unit_rows(f, "forward", "pose")
@@ -149,6 +163,7 @@ def look_at(positions: Any, targets: Any, up: Any = (0.0, 0.0, 1.0)) -> Poses:
     """Poses at ``positions`` whose beam axes point at ``targets`` (each (p, 3) or (3,))."""
     check_copies(positions=positions, targets=targets, up=up)
     pos = vectors(positions, "positions")
+    _check_build(pos.shape[0], LOOK_AT_BYTES_PER_POSE)
     tgt = vectors(targets, "targets", pos.shape[0])
     fwd = tgt - pos
     zero = ~(norms(fwd) > 0)
