@@ -353,3 +353,16 @@ def test_a_tiny_k_a_is_named_in_exponent_form_not_as_zero():
     with pytest.raises(ValueError, match=r"k a = \d\.\d{3}e-\d") as err:
         simulate(Scene(leaf), Sonar(), Poses([0.0, 0, 0], [0.0, 0, 1], [1.0, 0, 0]))
     assert "k a = 0.0000" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("kw", "needle"),
+    [
+        ({"scale": 1e300}, "scale=1e\\+300.*beyond 1e\\+15 m"),
+        ({"translation": (1e20, 0.0, 0.0)}, "translation=.*beyond 1e\\+15 m"),
+        ({"scale": 5e-324}, "scale=.*radii must be > 0"),
+    ],
+)
+def test_leaves_transformed_refuses_leaves_moved_out_of_bounds_naming_the_transform(kw, needle):
+    with pytest.raises(ValueError, match=needle):
+        Leaves(GOOD_C, GOOD_N, GOOD_R).transformed(**kw)

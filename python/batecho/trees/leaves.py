@@ -50,14 +50,7 @@ class Leaves(ReadOnlyOnLoading):
         if (r <= 0).any():
             i = int(np.argmax(r <= 0))
             raise ValueError(f"radii must be > 0; leaf {i} has radius {r[i]}")
-        if (np.abs(c) > MAX_COORDINATE_M).any():
-            i = int(np.argwhere(np.abs(c) > MAX_COORDINATE_M)[0, 0])
-            raise ValueError(
-                f"leaf {i} has a centre coordinate beyond {MAX_COORDINATE_M:g} m: {c[i]}"
-            )
-        if (r > MAX_COORDINATE_M).any():
-            i = int(np.argmax(r > MAX_COORDINATE_M))
-            raise ValueError(f"radii must be at most {MAX_COORDINATE_M:g} m; leaf {i} has {r[i]}")
+        _check_extent(c, r)
         nv = unit_rows(nv, "normal", "leaf")
         self._centers = readonly(c)
         self._normals = readonly(np.ascontiguousarray(nv))
@@ -123,10 +116,16 @@ class Leaves(ReadOnlyOnLoading):
         s = float(scale)
         if not (np.isfinite(s) and s > 0):
             raise ValueError(f"scale must be finite and > 0, got {scale}")
-        c = s * (self._centers @ R.T) + t
+        with np.errstate(over="ignore", under="ignore"):
+            c = s * (self._centers @ R.T) + t
+            r = self._radii * s
+        try:
+            _check_extent(c, r)  # a scale or shift may leave the bounds
+        except ValueError as exc:
+            raise ValueError(f"the leaves moved by scale={s:g}, translation={t}: {exc}") from None
         nv = self._normals @ R.T
         nv = nv / norms(nv)[:, None]
-        return Leaves._trusted(c, nv, self._radii * s)
+        return Leaves._trusted(c, nv, r)
 
     @staticmethod
     def concatenate(parts: Iterable[Leaves]) -> Leaves:
@@ -143,6 +142,21 @@ class Leaves(ReadOnlyOnLoading):
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounding box of the centres, (min, max)."""
         return self._centers.min(axis=0), self._centers.max(axis=0)
+
+
+def _check_extent(c: np.ndarray, r: np.ndarray) -> None:
+    """ValueError naming the first leaf whose centre (m) is not finite or lies beyond
+    :data:`MAX_COORDINATE_M`, or whose radius (m) is not in (0, MAX_COORDINATE_M]."""
+    bad = ~(np.abs(c) <= MAX_COORDINATE_M)
+    if bad.any():
+        i = int(np.argwhere(bad)[0, 0])
+        raise ValueError(f"leaf {i} has a centre coordinate beyond {MAX_COORDINATE_M:g} m: {c[i]}")
+    if (r > MAX_COORDINATE_M).any():
+        i = int(np.argmax(r > MAX_COORDINATE_M))
+        raise ValueError(f"radii must be at most {MAX_COORDINATE_M:g} m; leaf {i} has {r[i]}")
+    if (r <= 0).any():
+        i = int(np.argmax(r <= 0))
+        raise ValueError(f"radii must be > 0; leaf {i} has radius {r[i]}")
 
 
 def as_leaves(obj: Any) -> Leaves:
