@@ -366,3 +366,9 @@ def test_a_tiny_k_a_is_named_in_exponent_form_not_as_zero():
 def test_leaves_transformed_refuses_leaves_moved_out_of_bounds_naming_the_transform(kw, needle):
     with pytest.raises(ValueError, match=needle):
         Leaves(GOOD_C, GOOD_N, GOOD_R).transformed(**kw)
+
+
+@pytest.mark.parametrize("scale", ["2", True, None])
+def test_leaves_transformed_refuses_a_scale_that_is_not_a_real_number_naming_it(scale):
+    with pytest.raises(TypeError, match="scale must be a real number"):
+        Leaves(GOOD_C, GOOD_N, GOOD_R).transformed(scale=scale)

@@ -10,7 +10,7 @@ import numpy as np
 from .._geometry import norms
 from .._pickle import ReadOnlyOnLoading
 from .._resources import check_copies
-from .._validate import finite, readonly, real_array, unit_rows, vectors
+from .._validate import finite, positive_scalar, readonly, real_array, unit_rows, vectors
 
 #: Coordinates beyond this (m) are refused (the BVH stores f32 boxes).
 MAX_COORDINATE_M = 1e15
@@ -113,9 +113,7 @@ class Leaves(ReadOnlyOnLoading):
         if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
             raise ValueError("rotation must be a proper rotation matrix (orthonormal, det +1)")
         t = vectors(translation, "translation")[0]
-        s = float(scale)
-        if not (np.isfinite(s) and s > 0):
-            raise ValueError(f"scale must be finite and > 0, got {scale}")
+        s = positive_scalar(scale, "scale", strict=True)
         with np.errstate(over="ignore", under="ignore"):
             c = s * (self._centers @ R.T) + t
             r = self._radii * s
