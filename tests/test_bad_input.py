@@ -372,3 +372,9 @@ def test_leaves_transformed_refuses_leaves_moved_out_of_bounds_naming_the_transf
 def test_leaves_transformed_refuses_a_scale_that_is_not_a_real_number_naming_it(scale):
     with pytest.raises(TypeError, match="scale must be a real number"):
         Leaves(GOOD_C, GOOD_N, GOOD_R).transformed(scale=scale)
+
+
+@pytest.mark.parametrize("index", [True, None, np.array([[0, 1]])])
+def test_leaves_indexed_by_something_adding_an_axis_is_refused_naming_the_index(index):
+    with pytest.raises(IndexError, match="Leaves index must select leaves along one axis"):
+        Leaves(GOOD_C, GOOD_N, GOOD_R)[index]

@@ -97,8 +97,12 @@ class Leaves(ReadOnlyOnLoading):
 
     def __getitem__(self, index: Any) -> Leaves:
         """A subset (integer array, boolean mask or slice)."""
-        idx = np.arange(len(self))[index]
-        idx = np.atleast_1d(idx)
+        idx = np.atleast_1d(np.arange(len(self))[index])
+        if idx.ndim != 1:  # (True, None or a 2-D index add an axis: the leaves' arrays would too)
+            raise IndexError(
+                f"Leaves index must select leaves along one axis (an int, a slice, a 1-D int "
+                f"array or a boolean mask of {len(self)}); got {index!r}"
+            )
         if idx.size == 0:
             raise ValueError("selection is empty; Leaves needs at least one leaf")
         return Leaves._trusted(self._centers[idx], self._normals[idx], self._radii[idx])
