@@ -378,3 +378,8 @@ def test_leaves_transformed_refuses_a_scale_that_is_not_a_real_number_naming_it(
 def test_leaves_indexed_by_something_adding_an_axis_is_refused_naming_the_index(index):
     with pytest.raises(IndexError, match="Leaves index must select leaves along one axis"):
         Leaves(GOOD_C, GOOD_N, GOOD_R)[index]
+
+
+def test_leaves_concatenate_refuses_a_part_that_is_not_leaves_naming_it():
+    with pytest.raises(TypeError, match="part 1 is int"):
+        Leaves.concatenate([Leaves(GOOD_C, GOOD_N, GOOD_R), 3])

@@ -135,6 +135,9 @@ class Leaves(ReadOnlyOnLoading):
         parts = list(parts)
         if not parts:
             raise ValueError("concatenate needs at least one Leaves")
+        for i, p in enumerate(parts):
+            if not isinstance(p, Leaves):
+                raise TypeError(f"concatenate takes Leaves; part {i} is {type(p).__name__}")
         return Leaves._trusted(
             np.concatenate([p.centers for p in parts]),
             np.concatenate([p.normals for p in parts]),
