@@ -473,3 +473,9 @@ def test_a_window_whose_size_overflows_float64_is_refused_naming_the_window(wind
 def test_a_lambda_max_that_is_not_a_number_is_refused_naming_it(lam_max):
     with pytest.raises(TypeError, match="lambda_max"):
         sample_ipp(paper_intensity(), PAPER_WINDOW, 0, lambda_max=lam_max)
+
+
+@pytest.mark.usefixtures("one_mib_limit")
+def test_sample_ipp_refuses_candidates_too_many_for_the_memory_limit_before_drawing():
+    with pytest.raises(MemoryError, match="candidate points .*lambda_max 1 per m\\^2"):
+        sample_ipp(UniformIntensity(1.0), (0.0, 1e3, 0.0, 1e3), 0, lambda_max=1.0)

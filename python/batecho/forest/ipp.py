@@ -46,8 +46,11 @@ __all__ = [
 DEFAULT_SAFETY_MARGIN = 1.1
 #: Points per side of the grid on which ``lambda_max`` is estimated (plus the window vertices).
 DEFAULT_GRID = 256
-#: Refuse to draw more candidate points than this on average (memory guard, ~80 MB per 1e7).
+#: Refuse to draw more candidate points than this on average.
 MAX_CANDIDATES = 50_000_000
+#: Memory per candidate point of :func:`sample_ipp` (bytes): its three uniforms, coordinates,
+#: membership masks, indices and intensity (about 1 GB per 1e7 candidates, as measured).
+BYTES_PER_CANDIDATE = 96.0
 #: Memory per grid point or boundary sample of :func:`integrate_intensity` and
 #: :func:`estimate_lambda_max` (bytes): the coordinates, their stacked copies, the membership
 #: masks and the intensity's value (a function's own temporaries come on top).
@@ -626,6 +629,12 @@ def sample_ipp(
             f"means ~{expected:.3g} candidate points (limit {MAX_CANDIDATES:.3g}); "
             "use a smaller window or a tighter lambda_max"
         )
+    check_memory(
+        expected * BYTES_PER_CANDIDATE,
+        f"sample_ipp's ~{expected:.3g} candidate points (lambda_max {lam_max:g} per m^2 on a "
+        f"{xmax - xmin:g} m x {ymax - ymin:g} m box)",
+        "use a smaller window or a tighter lambda_max",
+    )
     n = int(gen.poisson(expected))
     u = gen.random((n, 3))
     x = xmin + (xmax - xmin) * u[:, 0]
