@@ -479,3 +479,9 @@ def test_a_lambda_max_that_is_not_a_number_is_refused_naming_it(lam_max):
 def test_sample_ipp_refuses_candidates_too_many_for_the_memory_limit_before_drawing():
     with pytest.raises(MemoryError, match="candidate points .*lambda_max 1 per m\\^2"):
         sample_ipp(UniformIntensity(1.0), (0.0, 1e3, 0.0, 1e3), 0, lambda_max=1.0)
+
+
+@pytest.mark.usefixtures("one_mib_limit")
+def test_draw_tree_positions_refuses_trees_too_many_for_the_memory_limit_naming_n_trees():
+    with pytest.raises(MemoryError, match="n_trees = 100000"):
+        draw_tree_positions(100_000, 0, UniformIntensity(1.0), (0.0, 100.0, 0.0, 100.0))

@@ -674,6 +674,11 @@ def draw_tree_positions(
     """
     integer(n_trees, "n_trees", 1)
     rounds = integer(max_rounds, "max_rounds", 1)
+    check_memory(
+        2.0 * 16.0 * n_trees,  # (the rounds' points, and their concatenation)
+        f"draw_tree_positions of n_trees = {n_trees}",
+        "ask for fewer trees",
+    )
     gen = generator(rng)
     lam = paper_intensity() if intensity is None else intensity
     # The bound of every round's thinning, found once (the estimate draws nothing, so each
