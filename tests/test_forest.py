@@ -400,3 +400,12 @@ def test_forest_params_keep_a_numpy_variants_count_as_a_python_int_for_json():
         [[0.0, 0.0]], 0, tree=grow_lsystem_tree, tree_params=SMALL, variants=np.int64(1)
     )
     assert json.loads(json.dumps(f.params))["variants"] == 1
+
+
+@pytest.mark.parametrize("name", ["rotations_deg", "scales"])
+@pytest.mark.parametrize("value", [["a"], [1j], [True]])
+def test_forest_refuses_rotations_or_scales_that_are_not_real_numbers_naming_them(
+    small_tree, name, value
+):
+    with pytest.raises(TypeError, match=f"{name} must"):
+        Forest([small_tree], [[0.0, 0.0]], variant_index=[0], **{name: value})

@@ -106,8 +106,8 @@ class Forest(ReadOnlyOnLoading):
                 raise TypeError(f"variants[{i}] must be a Tree, got {type(v).__name__}")
         pos = _ground_positions(positions)
         t = len(pos)
-        rot = np.zeros(t) if rotations_deg is None else np.array(rotations_deg, dtype=np.float64)
-        sc = np.ones(t) if scales is None else np.array(scales, dtype=np.float64)
+        rot = np.zeros(t) if rotations_deg is None else real_array(rotations_deg, "rotations_deg")
+        sc = np.ones(t) if scales is None else real_array(scales, "scales")
         if rot.shape != (t,) or not np.isfinite(rot).all():
             raise ValueError(f"rotations_deg must be {t} finite angles (degrees)")
         if sc.shape != (t,) or not (np.isfinite(sc).all() and (sc > 0).all()):
