@@ -409,3 +409,10 @@ def test_forest_refuses_rotations_or_scales_that_are_not_real_numbers_naming_the
 ):
     with pytest.raises(TypeError, match=f"{name} must"):
         Forest([small_tree], [[0.0, 0.0]], variant_index=[0], **{name: value})
+
+
+@pytest.mark.parametrize("index", [1.5, "0", True, None])
+def test_placed_refuses_a_tree_index_that_is_not_an_integer_naming_it(small_tree, index):
+    forest = Forest([small_tree], [[0.0, 0.0], [3.0, 3.0]], variant_index=[0, 0])
+    with pytest.raises(TypeError, match="tree index must be an integer"):
+        forest.placed(index)

@@ -20,6 +20,7 @@ generator, so it does not depend on how many trees are grown or in which order.
 
 from __future__ import annotations
 
+import numbers
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -376,6 +377,8 @@ class Forest(ReadOnlyOnLoading):
 
     def placed(self, i: int) -> Tree:
         """Tree ``i`` in place (a new Tree)."""
+        if isinstance(i, bool) or not isinstance(i, numbers.Integral):
+            raise TypeError(f"tree index must be an integer, got {i!r}")
         if not -self.n_trees <= i < self.n_trees:
             raise IndexError(f"tree {i} out of range for {self.n_trees} trees")
         i %= self.n_trees
