@@ -446,3 +446,15 @@ def test_pulse_times_outside_the_flight_are_rejected():
     flight = Quadrotor.crazyflie().fly(Hover(), 0.1)
     with pytest.raises(ValueError, match="within the flight"):
         flight.poses([0.05, 0.2])
+
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [({"ramp_time": 1e-300}, "ramp_time"), ({"speed": 1e-300}, "default ramp")],
+    ids=["ramp_time", "default-ramp"],
+)
+def test_a_line_whose_speed_ramp_is_too_short_for_float64_is_refused_by_name(kwargs, word):
+    # (it was taken, and its snap, or Quadrotor.fly, raised OverflowError (34, 'Numerical
+    # result out of range'))
+    with pytest.raises(ValueError, match=word):
+        Line([0.0, 0.0, 1.0], [1.0, 0.0, 1.0], **kwargs)

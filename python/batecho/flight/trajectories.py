@@ -379,6 +379,19 @@ class Line(Trajectory):
                 tr = 1.875 * self.speed
             else:
                 self.speed = self.length / tr
+        if tr > 0.0:  # (the ramp's snap peaks at 60 speed / ramp_time^3)
+            with np.errstate(over="ignore"):
+                snap = 60.0 * self.speed * np.float64(tr) ** -3
+            if not np.isfinite(snap):
+                ramp, fix = (
+                    ("ramp_time", "a longer ramp_time, or ramp_time=0 for no ramp")
+                    if ramp_time is not None
+                    else ("the default ramp, 1.875 speed", "a higher speed or a ramp_time")
+                )
+                raise ValueError(
+                    f"the speed ramp of {tr:g} s ({ramp}; speed {self.speed:g} m/s) is too "
+                    f"short for float64: the path's jerk and snap overflow; use {fix}"
+                )
         self.ramp_time = tr
         self.cruise_time = (self.length - self.speed * tr) / self.speed
         self.duration = 2.0 * tr + self.cruise_time
