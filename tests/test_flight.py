@@ -458,3 +458,15 @@ def test_a_line_whose_speed_ramp_is_too_short_for_float64_is_refused_by_name(kwa
     # result out of range'))
     with pytest.raises(ValueError, match=word):
         Line([0.0, 0.0, 1.0], [1.0, 0.0, 1.0], **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"period": 1e-300}, {"speed": 1e300}, {"speed": 1e-310}],
+    ids=["short-period", "fast", "slow"],
+)
+def test_a_figure_eight_whose_period_cannot_be_flown_in_float64_is_refused_by_name(kwargs):
+    # (a short period was taken and its snap raised OverflowError (34, 'Numerical result out
+    # of range'); a tiny speed was refused as "period must be finite and > 0, got inf")
+    with pytest.raises(ValueError, match=r"the period .* too short or long for float64"):
+        FigureEight((0.0, 0.0), **kwargs)

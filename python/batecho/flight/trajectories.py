@@ -305,8 +305,24 @@ class FigureEight(Trajectory):
         )
         self.length = length
         if period is None:
-            period = length / positive_scalar(2.0 if speed is None else speed, "speed")
-        self.duration = positive_scalar(period, "period")
+            v = positive_scalar(2.0 if speed is None else speed, "speed")
+            with np.errstate(over="ignore"):
+                period = float(np.float64(length) / v)
+            given = f"length {length:g} m / speed {v:g} m/s"
+        else:
+            period = positive_scalar(period, "period")
+            given = "period"
+        with np.errstate(over="ignore", divide="ignore"):
+            w = 2.0 * np.pi / np.float64(period)
+            snap = 16.0 * self.radius * w**4  # (y's snap, the larger)
+        if not (np.isfinite(period) and period > 0 and np.isfinite(snap)):
+            raise ValueError(
+                f"the period {period:g} s ({given}) of a figure eight of radius "
+                f"{self.radius:g} m is too short or long for float64 (the period or the "
+                "path's snap, 16 radius (2 pi / period)^4, overflows); use an ordinary "
+                "radius, speed or period"
+            )
+        self.duration = period
         self.speed = length / self.duration
         self.omega = 2.0 * math.pi / self.duration
         self._set_heading(heading, target, yaw_deg, np.array([*self.center, self.altitude]))
