@@ -339,6 +339,12 @@ def test_numpy_numbers_are_taken_as_the_python_numbers_they_equal():
     assert env.scales[0] == 1.5 and env.effort_weight == 0.0
 
 
+def test_a_time_limit_whose_step_count_overflows_float64_is_refused_by_name():
+    # (it raised OverflowError "cannot convert float infinity to integer")
+    with pytest.raises(ValueError, match="max_time_s"):
+        EchoFlightEnv(**{**SMALL, "max_time_s": 1e308})
+
+
 def test_a_quadrotor_that_is_not_one_is_refused_by_name():
     with pytest.raises(TypeError, match="quadrotor"):
         EchoFlightEnv(quadrotor="crazyflie")

@@ -293,7 +293,13 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.goal_radius_m, self.ceiling_m = float(goal_radius_m), float(ceiling_m)
         self.drone_radius_m = float(drone_radius_m)
         self.pulse_rate_hz, self.dt, self.n_substeps = float(pulse_rate_hz), float(dt), n_sub
-        self.max_steps = math.ceil(max_time_s * pulse_rate_hz - 1e-9)
+        n_pulses = max_time_s * pulse_rate_hz
+        if not math.isfinite(n_pulses):
+            raise ValueError(
+                f"max_time_s = {max_time_s:g} s is too long: its number of steps, "
+                f"max_time_s * pulse_rate_hz ({pulse_rate_hz:g} Hz), overflows float64"
+            )
+        self.max_steps = math.ceil(n_pulses - 1e-9)
         self.scales = np.array([max_speed_mps, max_speed_mps, max_climb_mps, max_yaw_rate])
         self.n_range_bins = int(n_range_bins)
         self.floor_db, self.ceiling_db = float(floor_db), float(ceiling_db)
