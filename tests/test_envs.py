@@ -345,6 +345,12 @@ def test_a_time_limit_whose_step_count_overflows_float64_is_refused_by_name():
         EchoFlightEnv(**{**SMALL, "max_time_s": 1e308})
 
 
+def test_a_ceiling_db_beyond_float32_is_refused_by_name():
+    # (gymnasium's Box refused it as "Box high is out of bounds of the dtype range")
+    with pytest.raises(ValueError, match="ceiling_db"):
+        EchoFlightEnv(**{**SMALL, "ceiling_db": 1e300})
+
+
 def test_a_quadrotor_that_is_not_one_is_refused_by_name():
     with pytest.raises(TypeError, match="quadrotor"):
         EchoFlightEnv(quadrotor="crazyflie")

@@ -270,6 +270,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         # (the empty bins hold floor_db: beyond float32's range they would be -inf)
         if not abs(floor_db) <= float(np.finfo(np.float32).max):
             raise ValueError(f"floor_db must be a finite float32 number (dB), got {floor_db!r}")
+        # (the echoes' Box is float32; an infinite ceiling clips nothing)
+        if math.isfinite(ceiling_db) and abs(ceiling_db) > float(np.finfo(np.float32).max):
+            raise ValueError(f"ceiling_db must be a float32 number (dB) or inf, got {ceiling_db!r}")
         if not floor_db < ceiling_db:
             raise ValueError(f"floor_db ({floor_db}) must be below ceiling_db ({ceiling_db})")
         steps = 1.0 / (pulse_rate_hz * dt)
