@@ -351,6 +351,14 @@ def test_a_ceiling_db_beyond_float32_is_refused_by_name():
         EchoFlightEnv(**{**SMALL, "ceiling_db": 1e300})
 
 
+@pytest.mark.parametrize("name", ["ceiling_m", "floor_db", "ceiling_db"])
+def test_a_level_or_ceiling_that_is_not_a_number_is_refused_by_name(name):
+    # ("8" for ceiling_m was refused as "ceiling_m (8) must be above altitude_m (2.5)"; the
+    # dB levels raised "'<' not supported" or "bad operand type for abs()")
+    with pytest.raises(TypeError, match=f"{name} must be a real number"):
+        EchoFlightEnv(**{**SMALL, name: "8"})
+
+
 def test_a_quadrotor_that_is_not_one_is_refused_by_name():
     with pytest.raises(TypeError, match="quadrotor"):
         EchoFlightEnv(quadrotor="crazyflie")

@@ -232,7 +232,14 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise ValueError(f"density must be a finite number >= 0 (trees/m^2), got {density!r}")
         if not 0 <= trees_from_m < length_m / 2:
             raise ValueError(f"trees_from_m must be in [0, length_m/2), got {trees_from_m!r}")
-        if not (_is_real(ceiling_m) and ceiling_m > altitude_m):
+        for name, value in (
+            ("ceiling_m", ceiling_m),
+            ("floor_db", floor_db),
+            ("ceiling_db", ceiling_db),
+        ):
+            if isinstance(value, bool) or not _is_real(value):
+                raise TypeError(f"{name} must be a real number, got {value!r}")
+        if not ceiling_m > altitude_m:
             raise ValueError(f"ceiling_m ({ceiling_m}) must be above altitude_m ({altitude_m})")
         if not math.isfinite(ceiling_m):
             raise ValueError(f"ceiling_m must be finite, got {ceiling_m!r}")
