@@ -284,3 +284,10 @@ def test_the_batch_refuses_actions_that_are_not_numbers_by_name(actions):
     batch.reset(seed=0)
     with pytest.raises(ValueError, match="actions must be"):
         batch.step(actions)
+
+
+@pytest.mark.parametrize("num_envs", [float("nan"), float("inf"), "x", None])
+def test_a_batch_size_that_is_not_a_finite_number_is_refused_by_name(num_envs):
+    # (it raised int()'s "cannot convert float NaN to integer", "invalid literal" and the like)
+    with pytest.raises(ValueError, match="num_envs"):
+        EchoFlightVectorEnv(num_envs=num_envs, **SMALL)

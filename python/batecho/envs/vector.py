@@ -9,6 +9,8 @@ environments, with the same results step for step.
 
 from __future__ import annotations
 
+import math
+import numbers
 from copy import deepcopy
 from typing import Any
 
@@ -43,7 +45,13 @@ class EchoFlightVectorEnv(VectorEnv):
     }
 
     def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any):
-        if isinstance(num_envs, bool) or int(num_envs) != num_envs or num_envs < 1:
+        if (
+            isinstance(num_envs, bool)
+            or not isinstance(num_envs, numbers.Real)
+            or not math.isfinite(num_envs)
+            or int(num_envs) != num_envs
+            or num_envs < 1
+        ):
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if max_episode_steps is not None:
             max_episode_steps = integer(max_episode_steps, "max_episode_steps", 1)
