@@ -45,13 +45,11 @@ class EchoFlightVectorEnv(VectorEnv):
     }
 
     def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any):
-        if (
-            isinstance(num_envs, bool)
-            or not isinstance(num_envs, numbers.Real)
-            or not math.isfinite(num_envs)
-            or int(num_envs) != num_envs
-            or num_envs < 1
-        ):
+        n: Any = num_envs  # (anything a caller passes)
+        whole = isinstance(n, numbers.Integral) or (
+            isinstance(n, numbers.Real) and math.isfinite(n) and float(n).is_integer()
+        )
+        if isinstance(n, bool) or not whole or n < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if max_episode_steps is not None:
             max_episode_steps = integer(max_episode_steps, "max_episode_steps", 1)
