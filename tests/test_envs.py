@@ -266,6 +266,12 @@ def test_echo_reactive_refuses_impossible_parameters_by_name(kwargs, name):
         echo_reactive(env, **kwargs)
 
 
+def test_echo_reactive_refuses_a_threshold_whose_amplitudes_overflow_by_name():
+    # (it was taken, and the policy returned NaN yaw rate and sidestep)
+    with pytest.raises(ValueError, match="threshold_db"):
+        echo_reactive(EchoFlightEnv(**SMALL), threshold_db=-1e300)
+
+
 def test_render_gives_an_rgb_array():
     env = EchoFlightEnv(**SMALL, render_mode="rgb_array")
     env.reset(seed=0)

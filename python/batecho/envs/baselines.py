@@ -96,6 +96,15 @@ def echo_reactive(
     ranges = (np.arange(n_bins) + 0.5) * reach / n_bins
     near = ranges <= near_m
     weight = np.where(near, near_m / ranges, 0.0)
+    ceiling = float(e.ceiling_db)
+    if np.isfinite(ceiling):  # (the loudest echo's amplitude above the threshold, summed)
+        with np.errstate(over="ignore"):
+            top = (np.float64(10.0) ** ((ceiling - threshold_db) / 20.0) - 1.0) * weight.sum()
+        if not np.isfinite(top):
+            raise ValueError(
+                f"threshold_db = {threshold_db:g} dB is too far below the echoes' ceiling_db "
+                f"({ceiling:g} dB): their amplitudes above it overflow float64"
+            )
 
     def policy(obs: dict[str, np.ndarray]) -> np.ndarray:
         _one(obs)
