@@ -87,6 +87,15 @@ def test_a_copied_environment_steps_as_the_original(how):
         assert a[1:4] == b[1:4]
 
 
+def test_a_numpy_integer_seed_gives_the_episode_of_the_int_it_equals():
+    # (Gymnasium refused it: "Seed must be a python integer, actual type: numpy.int64")
+    env = EchoFlightEnv(**SMALL)
+    first, _ = env.reset(seed=7)
+    again, _ = env.reset(seed=np.int64(7))
+    for key in first:
+        assert np.array_equal(first[key], again[key])
+
+
 def test_different_seeds_draw_different_forests():
     env = EchoFlightEnv(**SMALL)
     env.reset(seed=1)

@@ -446,7 +446,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """A new forest, start and goal, all drawn from ``seed`` (or the environment's
-        generator)."""
+        generator); a NumPy integer seed is the Python int it equals."""
+        if isinstance(seed, np.integer):  # (Gymnasium refuses NumPy integers)
+            seed = int(seed)
         super().reset(seed=seed)
         q = self.width_m / 4.0
         self.start = np.array([0.0, float(self.np_random.uniform(-q, q)), self.altitude_m])
