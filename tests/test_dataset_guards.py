@@ -220,3 +220,30 @@ def test_a_partial_store_left_by_a_killed_run_is_cleared_and_the_store_made(tmp_
     generate(spec, tmp_path / "out.zarr", workers=1, progress=False)
     assert verify(tmp_path / "out.zarr").n_chunks == 1
     assert not (tmp_path / "out.zarr.partial").exists()
+
+
+def test_a_local_run_counts_each_chunk_on_the_progress_bar_as_it_completes(monkeypatch):
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from batecho.dataset import pipeline
+
+    spec = tiny_spec(n_samples=4, pulses_per_sample=2, **{"output.chunk_size": 2})
+    counted = threading.Event()
+    seen_before_last: list[bool] = []
+
+    def run_chunk(store, text, k):  # chunk 1 ends only once chunk 0 is counted (or in 5 s)
+        if k == 1:
+            seen_before_last.append(counted.wait(timeout=5))
+        return k, 1, 0.0
+
+    class Bar:
+        def update(self, n):
+            counted.set()
+
+    monkeypatch.setattr(pipeline, "_run_chunk", run_chunk)
+    monkeypatch.setattr(
+        pipeline, "ProcessPoolExecutor", lambda max_workers, **kw: ThreadPoolExecutor(max_workers)
+    )
+    pipeline._run_local("store", spec.to_toml(), [0, 1], 2, Bar(), spec)
+    assert seen_before_last == [True]

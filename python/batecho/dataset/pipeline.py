@@ -24,7 +24,7 @@ import os
 import sys
 import time
 from collections import OrderedDict
-from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -412,7 +412,8 @@ def _run_local(
         pending = set(futures)
         try:
             while pending:
-                done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+                # (each chunk as it completes: the progress bar moves, a failure stops the run)
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for f in done:
                     k = futures[f]
                     exc = f.exception()
