@@ -463,6 +463,16 @@ def test_cli_generates_and_verifies_a_tiny_spec(tmp_path, capsys):
     assert "OK - 4 samples" in capsys.readouterr().out
 
 
+def test_cli_generate_takes_q_for_quiet_as_the_other_commands_do(tmp_path, capsys):
+    spec_path = tmp_path / "tiny.toml"
+    spec_path.write_text(tiny_spec(n_samples=2, pulses_per_sample=1).to_toml())
+    assert (
+        cli_main(["generate", str(spec_path), str(tmp_path / "q.zarr"), "--workers", "1", "-q"])
+        == 0
+    )
+    assert "samples" not in capsys.readouterr().err  # (no progress bar)
+
+
 def test_cli_verify_exits_1_naming_the_problem_on_a_corrupt_store(copy_of, capsys):
     g = zarr.open_group(str(copy_of), mode="r+", use_consolidated=False)
     g["chunk_checksum"][3] = 0

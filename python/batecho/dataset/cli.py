@@ -1,6 +1,6 @@
 """``batecho dataset ...``: generate, verify and inspect echo datasets.
 
-    batecho dataset generate SPEC.toml OUT.zarr [--scheduler ADDR] [--workers N] [--quiet]
+    batecho dataset generate SPEC.toml OUT.zarr [--scheduler ADDR] [--workers N] [-q]
     batecho dataset verify OUT.zarr [--quick]
     batecho dataset show OUT.zarr          # the stored spec and how much is done
     batecho dataset template               # a spec with every key at its default
@@ -41,7 +41,7 @@ def _configure(p: argparse.ArgumentParser) -> None:
         metavar="N",
         help="local worker processes (default: one per CPU; 1 runs in this process)",
     )
-    g.add_argument("--quiet", action="store_true", help="no progress bar")
+    g.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     v = sub.add_parser(
         "verify",
         help="check that a store is complete and intact",
