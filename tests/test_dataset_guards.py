@@ -247,3 +247,26 @@ def test_a_local_run_counts_each_chunk_on_the_progress_bar_as_it_completes(monke
     )
     pipeline._run_local("store", spec.to_toml(), [0, 1], 2, Bar(), spec)
     assert seen_before_last == [True]
+
+
+def test_sigterm_stops_a_run_as_ctrl_c_does_with_its_message_and_status_143(tmp_path):
+    spec_path = tmp_path / "spec.toml"
+    spec_path.write_text(tiny_spec(n_samples=400, pulses_per_sample=2).to_toml())
+    store = tmp_path / "s.zarr"
+    argv = [sys.executable, "-m", "batecho", "dataset", "generate", str(spec_path), str(store),
+            "--workers", "2", "--quiet"]  # fmt: skip
+    run = subprocess.Popen(argv, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not any(store.glob("chunk_checksum/c/*")) and time.monotonic() < deadline:
+            time.sleep(0.05)  # until the workers have written a chunk
+        run.send_signal(signal.SIGTERM)
+        rc, err = run.wait(timeout=60), run.stderr.read()
+    finally:
+        for pid in _session_alive(run.pid):
+            os.kill(pid, signal.SIGKILL)
+    assert rc == 143
+    assert (
+        "batecho dataset generate: interrupted; complete chunks are kept, run the same "
+        "command again to finish"
+    ) in err.splitlines()

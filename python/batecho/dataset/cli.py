@@ -78,18 +78,35 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM during ``generate``: stopped as Ctrl-C stops it (workers shut down, one line)."""
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    raise _Terminated
+
+
 def _generate(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
     from .pipeline import generate
     from .spec import DatasetSpec
 
     spec = DatasetSpec.from_toml(args.spec)
-    report = generate(
-        spec,
-        args.out,
-        client=args.scheduler,
-        workers=args.workers,
-        progress=not args.quiet,
-    )
+    main_thread = threading.current_thread() is threading.main_thread()
+    before = signal.signal(signal.SIGTERM, _raise_terminated) if main_thread else None
+    try:
+        report = generate(
+            spec,
+            args.out,
+            client=args.scheduler,
+            workers=args.workers,
+            progress=not args.quiet,
+        )
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, before)
     print(report.summary())
     return 0
 
@@ -151,13 +168,13 @@ def main(args: argparse.Namespace | Sequence[str] | None = None) -> int:
     except (ValueError, TypeError, RuntimeError, OSError, ImportError) as exc:
         print(f"batecho dataset {action}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print(
             f"batecho dataset {action}: interrupted; complete chunks are kept, run the same "
             "command again to finish",
             file=sys.stderr,
         )
-        return 130
+        return 143 if isinstance(exc, _Terminated) else 130
 
 
 if __name__ == "__main__":
