@@ -189,3 +189,76 @@ def test_a_spawned_process_pool_simulates_what_this_process_does():
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
         got = pool.submit(_echo_in_worker, (scene, sonar, POSES)).result(timeout=300)
     assert np.array_equal(got, want)
+
+
+class _Edited:
+    """Pickles as ``obj`` with the entries ``edits`` of its state replaced: an edited pickle."""
+
+    def __init__(self, obj, **edits):
+        self.obj, self.edits = obj, edits
+
+    def __reduce__(self):
+        state = self.obj.__reduce_ex__(2)[2]
+        if isinstance(state, tuple):  # (dict or None, slots)
+            state = (state[0], {**state[1], **self.edits})
+        else:
+            state = {**state, **self.edits}
+        return (_new, (type(self.obj),), state)
+
+
+def _new(cls):
+    return cls.__new__(cls)
+
+
+def _load_edited(obj, **edits):
+    return pickle.loads(pickle.dumps(_Edited(obj, **edits)))
+
+
+def test_a_pickled_leaves_edited_to_nan_centres_is_refused_on_loading():
+    leaves = _wooded_scene().leaves
+    centers = np.array(leaves.centers)
+    centers[3] = np.nan
+    with pytest.raises(ValueError, match="pickled Leaves: centers must be finite"):
+        _load_edited(leaves, _centers=centers)
+
+
+def test_a_pickled_leaves_edited_to_radii_of_another_length_is_refused_on_loading():
+    leaves = _wooded_scene().leaves
+    with pytest.raises(ValueError, match="pickled Leaves: radii must have shape"):
+        _load_edited(leaves, _radii=np.full(3, 0.02))
+
+
+def test_a_pickled_leaves_edited_to_normals_of_another_length_than_one_is_refused_on_loading():
+    leaves = _wooded_scene().leaves
+    with pytest.raises(ValueError, match="pickled Leaves: leaf 0's normal .* not a unit vector"):
+        _load_edited(leaves, _normals=leaves.normals * 2.0)
+
+
+def test_a_pickled_branches_edited_to_a_zero_length_segment_is_refused_on_loading():
+    branches = _wooded_scene().branches
+    with pytest.raises(ValueError, match="pickled Branches: branch 0 has zero length"):
+        _load_edited(branches, _ends=np.array(branches.starts))
+
+
+def test_a_pickled_poses_edited_to_float32_positions_is_refused_on_loading():
+    with pytest.raises(ValueError, match="pickled Poses: its positions is float32"):
+        _load_edited(POSES, _positions=POSES.positions.astype(np.float32))
+
+
+def test_a_pickled_poses_edited_to_a_frame_that_is_not_orthonormal_is_refused_on_loading():
+    with pytest.raises(ValueError, match="pickled Poses: its left vectors are not up x forward"):
+        _load_edited(POSES, _left=-POSES.left)
+
+
+def test_a_pickled_call_edited_to_silent_samples_is_refused_on_loading():
+    # (its matched filter divided by the zero energy: compressed echoes were all NaN)
+    call = batecho.Call.linear_fm(80e3, 60e3, duration_s=1e-3)
+    with pytest.raises(ValueError, match="pickled Call: the samples' energy"):
+        _load_edited(call, samples=np.zeros(len(call)))
+
+
+def test_a_pickled_call_edited_to_a_rate_that_is_not_a_number_is_refused_on_loading():
+    call = batecho.Call.linear_fm(80e3, 60e3, duration_s=1e-3)
+    with pytest.raises(ValueError, match="pickled Call: fs must be"):
+        _load_edited(call, fs=float("nan"))
+

@@ -6,6 +6,8 @@ made read-only again on loading."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -50,3 +52,33 @@ class ReadOnlyOnLoading:
         for part in state if isinstance(state, tuple) else (state,):
             for name, value in (part or {}).items():
                 object.__setattr__(self, name, _read_only(value))
+        self._check_loaded()
+
+    def _check_loaded(self) -> None:
+        """Raise ValueError if the loaded state is not one the class makes (pickles can be
+        edited); a hook, checking nothing unless a class says what to check."""
+
+
+@contextmanager
+def refused_on_loading(obj: Any) -> Iterator[None]:
+    """The TypeErrors and ValueErrors of checking ``obj``'s loaded state, as a ValueError
+    naming its class."""
+    try:
+        yield
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"refusing this pickled {type(obj).__name__}: {exc}") from None
+
+
+def loaded_arrays(obj: Any, names: tuple[str, ...]) -> list[np.ndarray]:
+    """``obj``'s loaded attributes ``names``, each a float64 array; ValueError otherwise."""
+    out = []
+    for name in names:
+        value = getattr(obj, name, None)
+        if not isinstance(value, np.ndarray) or value.dtype != np.float64:
+            what = value.dtype if isinstance(value, np.ndarray) else type(value).__name__
+            raise ValueError(
+                f"refusing this pickled {type(obj).__name__}: its {name.lstrip('_')} is "
+                f"{what}, not a float64 array"
+            )
+        out.append(value)
+    return out

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import crosses, dots, norms
-from .._pickle import ReadOnlyOnLoading
+from .._pickle import ReadOnlyOnLoading, loaded_arrays, refused_on_loading
 from .._resources import check_copies, check_memory
 from .._validate import readonly, real_array, unit_rows, vectors
 
@@ -70,6 +70,18 @@ class Poses(ReadOnlyOnLoading):
         self._forward = readonly(np.ascontiguousarray(d))
         self._up = readonly(np.ascontiguousarray(uu))
         self._left = readonly(np.ascontiguousarray(crosses(uu, d)))
+
+    def _check_loaded(self) -> None:
+        pos, fwd, up, left = loaded_arrays(self, ("_positions", "_forward", "_up", "_left"))
+        with refused_on_loading(self):
+            made = Poses(pos, fwd, up)
+            for name, got, want in (("forward", fwd, made.forward), ("up", up, made.up)):
+                if got.shape != want.shape or not np.allclose(got, want, rtol=0.0, atol=1e-9):
+                    raise ValueError(f"its {name} vectors are not an orthonormal frame's")
+            if left.shape != made.left.shape or not np.allclose(
+                left, made.left, rtol=0.0, atol=1e-9
+            ):
+                raise ValueError("its left vectors are not up x forward")
 
     @classmethod
     def _from_frames(

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .._pickle import ReadOnlyOnLoading
+from .._pickle import ReadOnlyOnLoading, loaded_arrays, refused_on_loading
 from .._resources import check_copies
 from .._validate import finite_scalar, positive_scalar, real_array
 
@@ -93,6 +93,15 @@ class Call(ReadOnlyOnLoading):
         s.flags.writeable = False
         object.__setattr__(self, "samples", s)
         object.__setattr__(self, "fs", positive_scalar(self.fs, "fs"))
+
+    def _check_loaded(self) -> None:
+        (samples,) = loaded_arrays(self, ("samples",))
+        with refused_on_loading(self):
+            made = Call(samples, self.fs, self.name)
+            if made.fs != self.fs:
+                raise ValueError(f"fs is {self.fs!r}, not a rate in Hz")
+            if not isinstance(self.name, str):
+                raise TypeError(f"name is {self.name!r}, not a string")
 
     # (the samples compare and hash by value; the generated methods would compare arrays)
     def __eq__(self, other: object) -> bool:

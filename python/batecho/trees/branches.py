@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import norms
-from .._pickle import ReadOnlyOnLoading
+from .._pickle import ReadOnlyOnLoading, loaded_arrays, refused_on_loading
 from .._resources import check_copies
 from .._validate import finite, readonly, real_array, vectors
 from .leaves import MAX_COORDINATE_M
@@ -69,6 +69,11 @@ class Branches(ReadOnlyOnLoading):
         self._starts = readonly(s)
         self._ends = readonly(e)
         self._radii = readonly(r)
+
+    def _check_loaded(self) -> None:
+        s, e, r = loaded_arrays(self, ("_starts", "_ends", "_radii"))
+        with refused_on_loading(self):
+            Branches(s, e, r)
 
     @classmethod
     def _trusted(cls, starts: np.ndarray, ends: np.ndarray, radii: np.ndarray) -> Branches:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from .._geometry import norms
-from .._pickle import ReadOnlyOnLoading
+from .._pickle import ReadOnlyOnLoading, loaded_arrays, refused_on_loading
 from .._resources import check_copies
 from .._validate import finite, positive_scalar, readonly, real_array, unit_rows, vectors
 
@@ -55,6 +55,16 @@ class Leaves(ReadOnlyOnLoading):
         self._centers = readonly(c)
         self._normals = readonly(np.ascontiguousarray(nv))
         self._radii = readonly(r)
+
+    def _check_loaded(self) -> None:
+        c, nv, r = loaded_arrays(self, self.__slots__)
+        with refused_on_loading(self):
+            Leaves(c, nv, r)
+            length2 = np.einsum("ij,ij->i", nv, nv)
+            off = ~(np.abs(length2 - 1.0) <= 1e-6)  # (the core's test)
+            if off.any():
+                i = int(np.argmax(off))
+                raise ValueError(f"leaf {i}'s normal {nv[i]} is not a unit vector")
 
     @classmethod
     def _trusted(cls, centers: np.ndarray, normals: np.ndarray, radii: np.ndarray) -> Leaves:
