@@ -35,7 +35,7 @@ PACKAGE_DIR = ROOT / "python" / "batecho"
 #: batecho's subpackages and top-level modules in import order: trees -> forest -> flight ->
 #: sonar -> echoes -> outputs -> scene files, paper, datasets -> command line.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_core", "_validate", "_geometry", "_random", "_pickle"),
+    ("_core", "_validate", "_geometry", "_random", "_pickle", "_equal"),
     ("_resources",),
     ("trees",),
     ("forest",),

@@ -11,6 +11,7 @@ from typing import Any, cast
 import numpy as np
 
 from .. import _core
+from .._equal import EqualByValue, same
 from ..flight.poses import Poses
 from ..forest.clearance import (
     DEFAULT_MIN_CLEARANCE_M,
@@ -31,8 +32,8 @@ DEFAULT_METHOD = "auto"
 DEFAULT_TOL = 1e-12
 
 
-@dataclass(frozen=True)
-class Echoes:
+@dataclass(frozen=True, eq=False)
+class Echoes(EqualByValue):
     """Echoes of ``p`` poses.
 
     ``spectrum`` (p, M) complex128: the windowed band spectrum ``Y_k`` at ``freqs`` (M,) Hz.
@@ -62,6 +63,12 @@ class Echoes:
     wood_spectrum: np.ndarray | None = None
     n_pieces: np.ndarray | None = None
     n_shaded: np.ndarray | None = None
+
+    def _same_field(self, name: str, a: Any, b: Any) -> bool:
+        if name == "poses":  # (Poses compare by identity; echoes by the frames they hold)
+            frames = ("positions", "forward", "up", "left")
+            return all(same(getattr(a, k), getattr(b, k)) for k in frames)
+        return same(a, b)
 
     def __post_init__(self):
         if self.n_pieces is None:
@@ -353,8 +360,8 @@ def lobe_members(
     )
 
 
-@dataclass(frozen=True)
-class LeafSights:
+@dataclass(frozen=True, eq=False)
+class LeafSights(EqualByValue):
     """What lies on the rays to the counting leaves of one pose (docs/model.md §10).
 
     ``index`` (int64, ascending): the leaves that count; ``crossings`` (int64): how many other

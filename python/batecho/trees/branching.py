@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._equal import EqualByValue
 from .._resources import check_memory, warn_if_slow
 from .._validate import finite_scalar, integer, point3
 from .lsystem import LSystem, SeedLike
@@ -30,8 +31,8 @@ def branching_seconds(n_branches: int, buds_per_node: int) -> float:
     return S_PER_BUD_STEP * n_branches * -(-n_branches // buds_per_node)
 
 
-@dataclass(frozen=True)
-class Branching:
+@dataclass(frozen=True, eq=False)
+class Branching(EqualByValue):
     """Where the first-level branches leave a (straight) trunk, and in which directions.
 
     ``trunk_base``, ``trunk_top`` (3,) m; ``origins`` (b, 3) m, points on the trunk axis;

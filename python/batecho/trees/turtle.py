@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .._equal import EqualByValue
 from .._validate import finite_scalar, point3, positive_scalar
 from .lsystem import parse_modules
 
@@ -68,8 +69,8 @@ _ROTATIONS: dict[str, tuple[str, float]] = {
 }
 
 
-@dataclass(frozen=True)
-class Marks:
+@dataclass(frozen=True, eq=False)
+class Marks(EqualByValue):
     """Turtle states recorded at the modules whose symbols were passed as ``marks``.
 
     ``symbols`` (m,) str array; ``params`` a list of parameter tuples; ``positions``,
@@ -89,8 +90,8 @@ class Marks:
         return int(self.positions.shape[0])
 
 
-@dataclass(frozen=True)
-class Segments:
+@dataclass(frozen=True, eq=False)
+class Segments(EqualByValue):
     """The segments drawn by :func:`turtle`, one row per ``F``.
 
     ``starts``, ``ends`` (k, 3) float64 (length unit of ``step``); ``widths`` (k,) the width
