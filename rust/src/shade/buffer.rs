@@ -31,6 +31,8 @@ struct Face {
 /// Targets binned by the direction of their rays.
 pub(super) struct Buffer {
     faces: [Face; 6],
+    /// The faces' grids lane by lane.
+    pub(super) lanes: FaceLanes,
     h: f64,
     /// `1 / h`, by which [`Buffer::coord`] scales.
     inv_h: f64,
@@ -105,13 +107,16 @@ impl Rect {
 /// Disks per call of [`disk_boxes`].
 pub(super) const DISKS: usize = 8;
 
-/// Each disk's face (that of its centre) and its slope ranges there, and whether they stay
-/// inside that face with the disk far enough from the sonar to bin.
-struct DiskBoxes {
-    face: [u8; DISKS],
-    u: [(f64, f64); DISKS],
-    w: [(f64, f64); DISKS],
-    inside: [bool; DISKS],
+/// Each disk's face (that of its centre) and its slope ranges there (`u` along the face's
+/// first coordinate, `w` along its second), and whether they stay inside that face with the
+/// disk far enough from the sonar to bin.
+pub(super) struct DiskBoxes {
+    pub face: [u8; DISKS],
+    pub u_lo: [f64; DISKS],
+    pub u_hi: [f64; DISKS],
+    pub w_lo: [f64; DISKS],
+    pub w_hi: [f64; DISKS],
+    pub inside: [bool; DISKS],
 }
 
 /// The boxes of [`DISKS`] disks (centres `v` relative to the sonar and unit normals `n`, by
@@ -121,8 +126,10 @@ struct DiskBoxes {
 fn disk_boxes(v: &[[f64; DISKS]; 3], n: &[[f64; DISKS]; 3], a: &[f64; DISKS]) -> DiskBoxes {
     let mut out = DiskBoxes {
         face: [0; DISKS],
-        u: [(0.0, 0.0); DISKS],
-        w: [(0.0, 0.0); DISKS],
+        u_lo: [0.0; DISKS],
+        u_hi: [0.0; DISKS],
+        w_lo: [0.0; DISKS],
+        w_hi: [0.0; DISKS],
         inside: [false; DISKS],
     };
     for k in 0..DISKS {
@@ -147,11 +154,26 @@ fn disk_boxes(v: &[[f64; DISKS]; 3], n: &[[f64; DISKS]; 3], a: &[f64; DISKS]) ->
         let w = disk_slopes(vc, zf, nc, na, r);
         let inside = |s: (f64, f64)| s.0 > -1.0 && s.1 < 1.0;
         out.face[k] = 2 * axis + u8::from(va < 0.0);
-        out.u[k] = u;
-        out.w[k] = w;
+        (out.u_lo[k], out.u_hi[k]) = u;
+        (out.w_lo[k], out.w_hi[k]) = w;
         out.inside[k] = near_ok & (zf > r) & inside(u) & inside(w);
     }
     out
+}
+
+/// The faces' grids lane by lane, entry `f` for face `f` (the last two unused), for vector
+/// code that looks them up by face: each grid's corner, its far bounds (as
+/// [`Buffer::face_rect`] computes them), its size in cells (0 for a face without a grid) and
+/// its first cell.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct FaceLanes {
+    pub u0: [f64; 8],
+    pub v0: [f64; 8],
+    pub umax: [f64; 8],
+    pub vmax: [f64; 8],
+    pub nu: [i64; 8],
+    pub nv: [i64; 8],
+    pub first: [i64; 8],
 }
 
 /// The range of slopes `x_b / x_a` over a disk of centre `(vb, z)` (`z > a`), normal
@@ -224,8 +246,18 @@ impl Buffer {
             };
             n_cells += nu * nv;
         }
+        let mut lanes = FaceLanes::default();
+        for (f, fc) in faces.iter().enumerate() {
+            lanes.u0[f] = fc.u0;
+            lanes.v0[f] = fc.v0;
+            lanes.umax[f] = fc.u0 + fc.nu as f64 * h;
+            lanes.vmax[f] = fc.v0 + fc.nv as f64 * h;
+            (lanes.nu[f], lanes.nv[f]) = (fc.nu as i64, fc.nv as i64);
+            lanes.first[f] = fc.first as i64;
+        }
         let mut buf = Buffer {
             faces,
+            lanes,
             h,
             inv_h: 1.0 / h,
             n_cells,
@@ -322,30 +354,42 @@ impl Buffer {
         true
     }
 
-    /// The cells that can hold a target whose ray crosses disk `k` of [`DISKS`] (centres `v`
-    /// relative to the sonar and unit normals `n`, by coordinate; radii `a`): the rectangle of
-    /// the cells of the disk's box on the face of its centre, or, for the rare disk whose box
-    /// leaves that face or that lies too near the sonar, [`Rect::APART`]: its cells are found
-    /// by [`Buffer::disk_cells_apart`].
+    /// The boxes of [`DISKS`] disks (centres `v` relative to the sonar and unit normals `n`, by
+    /// coordinate; radii `a`) on the faces of their centres: see [`Buffer::rect_of`].
     #[inline(always)]
-    pub(super) fn disks_rects(
+    pub(super) fn disk_boxes(
         &self,
         v: &[[f64; DISKS]; 3],
         n: &[[f64; DISKS]; 3],
         a: &[f64; DISKS],
-    ) -> [Rect; DISKS] {
-        let b = disk_boxes(v, n, a);
-        std::array::from_fn(|k| {
-            if b.inside[k] {
-                self.face_rect(b.face[k] as usize, b.u[k], b.w[k])
-            } else {
-                Rect::APART
-            }
-        })
+    ) -> DiskBoxes {
+        disk_boxes(v, n, a)
+    }
+
+    /// The cells that can hold a target whose ray crosses disk `k` of the boxes `b`: the
+    /// rectangle of the cells of the disk's box on the face of its centre, or, for the rare
+    /// disk whose box leaves that face or that lies too near the sonar, [`Rect::APART`]: its
+    /// cells are found by [`Buffer::disk_cells_apart`].
+    #[inline(always)]
+    pub(super) fn rect_of(&self, b: &DiskBoxes, k: usize) -> Rect {
+        if b.inside[k] {
+            self.face_rect(
+                b.face[k] as usize,
+                (b.u_lo[k], b.u_hi[k]),
+                (b.w_lo[k], b.w_hi[k]),
+            )
+        } else {
+            Rect::APART
+        }
+    }
+
+    /// The reciprocal of the cell width, by which cell coordinates are scaled.
+    pub(super) fn inv_h(&self) -> f64 {
+        self.inv_h
     }
 
     /// Calls `visit(c0, c1)` for the runs of cells `c0..c1` of a disk (centre `v` relative to
-    /// the sonar, radius `a`) that [`Buffer::disks_rects`] marks apart: those of its ball
+    /// the sonar, radius `a`) that [`Buffer::rect_of`] marks apart: those of its ball
     /// ([`Buffer::ball_cells`]), or every cell if that is too near the sonar to bin.
     pub(super) fn disk_cells_apart(&self, v: V3, a: f64, mut visit: impl FnMut(usize, usize)) {
         if !self.ball_cells(v, a, &mut visit) {
@@ -472,11 +516,12 @@ mod tests {
                     a[k] = r;
                 }
                 let mut reached = vec![vec![false; buf.n_cells()]; DISKS];
-                for (k, rect) in buf.disks_rects(&v, &n, &a).iter().enumerate() {
+                let b = buf.disk_boxes(&v, &n, &a);
+                for (k, rect) in (0..DISKS).map(|k| (k, buf.rect_of(&b, k))) {
                     let mut mark = |c0: usize, c1: usize| {
                         reached[k][c0..c1].iter_mut().for_each(|r| *r = true)
                     };
-                    if *rect == Rect::APART {
+                    if rect == Rect::APART {
                         buf.disk_cells_apart([v[0][k], v[1][k], v[2][k]], a[k], mark);
                     } else {
                         for q in 0..rect.rows as usize {

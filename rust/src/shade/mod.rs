@@ -13,6 +13,7 @@
 pub mod buffer;
 pub mod crossing;
 pub mod occluders;
+mod runs;
 mod sweep;
 
 use crate::math::vec3::{dot, V3};
@@ -198,33 +199,19 @@ fn count_crossings<'a>(
     total
 }
 
-/// The targets' rays in the buffer's order (gathered in parallel), padded as
-/// [`Rays::inert`] pads them.
+/// The targets' rays in the buffer's order, padded as [`Rays::inert`] pads them: each target
+/// in turn put at its place (its slot), so that the reads run in order.
 fn rays_in_order(targets: &[Target], buf: &Buffer, w: &[V3], r: &[f64]) -> Rays {
     let n = targets.len();
     let mut rays = Rays::inert(n);
-    const GATHER_CHUNK: usize = 4096;
-    (
-        rays.x[..n].par_chunks_mut(GATHER_CHUNK),
-        rays.y[..n].par_chunks_mut(GATHER_CHUNK),
-        rays.z[..n].par_chunks_mut(GATHER_CHUNK),
-        rays.range[..n].par_chunks_mut(GATHER_CHUNK),
-        rays.leaf[..n].par_chunks_mut(GATHER_CHUNK),
-        rays.segment[..n].par_chunks_mut(GATHER_CHUNK),
-    )
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(c, (x, y, z, range, leaf, segment))| {
-            let order = &buf.order[c * GATHER_CHUNK..];
-            for k in 0..x.len() {
-                let i = order[k] as usize;
-                (x[k], y[k], z[k], range[k]) = (w[i][0], w[i][1], w[i][2], r[i]);
-                (leaf[k], segment[k]) = match targets[i] {
-                    Target::Leaf { leaf, .. } => (leaf, u32::MAX),
-                    Target::Piece { segment, .. } => (u32::MAX, segment),
-                };
-            }
-        });
+    for (i, t) in targets.iter().enumerate() {
+        let p = buf.slot[i] as usize;
+        (rays.x[p], rays.y[p], rays.z[p], rays.range[p]) = (w[i][0], w[i][1], w[i][2], r[i]);
+        (rays.leaf[p], rays.segment[p]) = match *t {
+            Target::Leaf { leaf, .. } => (leaf, u32::MAX),
+            Target::Piece { segment, .. } => (u32::MAX, segment),
+        };
+    }
     rays
 }
 

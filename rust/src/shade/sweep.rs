@@ -3,11 +3,13 @@
 //! its nearest point, by the exact test of [`Disk::crossed_by`] written lane by lane, in
 //! AVX-512 or AVX2 where the CPU has them and in portable code otherwise. The lanes perform the
 //! same f64 operations in the same order as [`Disk::crossed_by`] (no FMA), so they decide every
-//! ray alike. The tests are listed first as steps (a disk against eight consecutive targets)
-//! and then run in one flat loop, so that the CPU predicts its branches and overlaps the
-//! steps' divisions; each step adds its crossings to the task's counts lane by lane.
-use super::buffer::{Buffer, Rect, DISKS};
+//! ray alike. The tests are listed first as runs ([`super::runs`]: a disk against up to three
+//! steps of eight consecutive targets), and the runs of each length then go in one loop, so
+//! that the CPU predicts its branches and overlaps the steps' divisions; each step adds its
+//! crossings to the task's counts lane by lane.
+use super::buffer::{Buffer, DISKS};
 use super::crossing::Disk;
+use super::runs::{list_block, step_mask, wide_listing, Run, Runs, LANES, MAX_STEPS};
 use crate::math::vec3::{dot, V3};
 use crate::scene::Scene;
 
@@ -44,15 +46,11 @@ impl Rays {
     }
 }
 
-/// Lanes of one step of the disk test. [`Rays`] holds this many inert entries past its last
-/// ray, so that every step reads whole lanes and vectorises, short rows included.
-pub(super) const LANES: usize = 8;
-
 /// Count, for every target, the disks of the leaves `chunk` (stored indices, at most
 /// [`u16::MAX`] + 1) that its ray crosses, into the task's `work` (by position): a block of
-/// disks and their steps at a time (independent scalar work that pipelines), then, once
-/// [`STEPS_HELD`] steps are held and at the end, the tests and counts in one flat loop over
-/// the steps, whose branches the CPU predicts.
+/// disks and their runs at a time (independent scalar work that pipelines), then, once
+/// [`RUNS_HELD`] runs are held and at the end, the tests and counts in flat loops over the
+/// runs of one, two and three steps, whose branches the CPU predicts.
 pub(super) fn leaf_chunk(
     scene: &Scene,
     origin: V3,
@@ -66,27 +64,29 @@ pub(super) fn leaf_chunk(
         "a chunk's disks are u16"
     );
     work.disks.clear();
-    work.steps.clear();
+    work.clear_runs();
     for block in chunk.chunks(DISKS) {
         work.push_block(scene, origin, buf, block);
-        if work.steps.len() >= STEPS_HELD {
+        if work.runs.iter().map(Vec::len).sum::<usize>() >= RUNS_HELD {
             work.test(rays);
         }
     }
     work.test(rays);
 }
 
-/// Steps held before they are tested (a disk too near the sonar to bin has a step for every
-/// [`LANES`] targets).
-const STEPS_HELD: usize = 1 << 16;
+/// Runs held before they are tested (a disk too near the sonar to bin has a run for every
+/// [`MAX_STEPS`] steps of targets).
+const RUNS_HELD: usize = 1 << 15;
 
-/// One task's working space: its chunk's disks and steps, and its counts of crossings by
+/// One task's working space: its chunk's disks and their runs, its counts of crossings by
 /// position (padded by [`LANES`]; the tasks' counts are added at the end, so that the sums
-/// are the same for any split of the work).
+/// are the same for any split of the work), and whether it lists runs in AVX-512.
 pub(super) struct Work {
     disks: Vec<Occluder>,
-    steps: Vec<Step>,
+    runs: Runs,
     pub crossings: Vec<u32>,
+    wide: bool,
+    kernel: Kernel,
 }
 
 impl Work {
@@ -94,20 +94,20 @@ impl Work {
     pub fn new(n: usize) -> Work {
         Work {
             disks: Vec::new(),
-            steps: Vec::new(),
+            runs: Default::default(),
             crossings: vec![0; n + LANES],
+            wide: wide_listing(),
+            kernel: Kernel::fastest(),
         }
     }
 
-    /// The disks of the leaves `block` (stored indices, at most [`DISKS`]) and the steps of
-    /// their tests over the runs of positions of the cells they reach.
+    /// The disks of the leaves `block` (stored indices, at most [`DISKS`]) and the runs of
+    /// their tests over the positions of the cells they reach.
     fn push_block(&mut self, scene: &Scene, origin: V3, buf: &Buffer, block: &[u32]) {
-        let (disks, steps) = (&mut self.disks, &mut self.steps);
-        let start = &buf.start[..];
         let mut v = [[0.0f64; DISKS]; 3];
         let mut nrm = [[0.0f64; DISKS]; 3];
         let mut a = [0.0f64; DISKS];
-        let first = disks.len();
+        let first = self.disks.len();
         for (k, &j) in block.iter().enumerate() {
             let c = scene.centers.get(j as usize);
             let vk = [c[0] - origin[0], c[1] - origin[1], c[2] - origin[2]];
@@ -115,44 +115,36 @@ impl Work {
             a[k] = scene.radii[j as usize];
             let nk = scene.normals.get(j as usize);
             (nrm[0][k], nrm[1][k], nrm[2][k]) = (nk[0], nk[1], nk[2]);
-            disks.push(Occluder::new(Disk::new(vk, nk, a[k]), a[k], j));
+            self.disks
+                .push(Occluder::new(Disk::new(vk, nk, a[k]), a[k], j));
         }
-        let rects = buf.disks_rects(&v, &nrm, &a);
-        for (k, rect) in rects.iter().enumerate().take(block.len()) {
-            let occ = (first + k) as u16;
-            if *rect == Rect::APART {
-                buf.disk_cells_apart([v[0][k], v[1][k], v[2][k]], a[k], |c0, c1| {
-                    push_run(steps, occ, start[c0], start[c1])
-                });
-                continue;
-            }
-            for q in 0..rect.rows as usize {
-                let c0 = rect.first as usize + q * rect.stride as usize;
-                push_run(steps, occ, start[c0], start[c0 + rect.width as usize]);
-            }
-        }
+        let b = buf.disk_boxes(&v, &nrm, &a);
+        list_block(
+            buf,
+            &b,
+            block.len(),
+            first as u16,
+            &v,
+            &a,
+            &mut self.runs,
+            self.wide,
+        );
     }
 
-    /// Test and count the steps held, and drop them.
+    /// Test and count the runs held, and drop them.
     fn test(&mut self, rays: &Rays) {
-        test_steps_fastest(&self.disks, &self.steps, rays, &mut self.crossings);
-        self.steps.clear();
+        test_all_runs(
+            self.kernel,
+            &self.disks,
+            &self.runs,
+            rays,
+            &mut self.crossings,
+        );
+        self.clear_runs();
     }
-}
 
-/// Append the steps of disk `occ` over the positions `lo..hi`.
-#[inline(always)]
-fn push_run(steps: &mut Vec<Step>, occ: u16, lo: u32, hi: u32) {
-    let mut at = lo;
-    while at < hi {
-        let left = hi - at;
-        let mask = if left >= LANES as u32 {
-            u8::MAX
-        } else {
-            ((1u32 << left) - 1) as u8
-        };
-        steps.push(Step { at, occ, mask });
-        at += LANES as u32;
+    fn clear_runs(&mut self) {
+        self.runs.iter_mut().for_each(Vec::clear);
     }
 }
 
@@ -194,43 +186,70 @@ impl Occluder {
     }
 }
 
-/// One step of the tests: disk `occ` of the chunk against the [`LANES`] rays from position
-/// `at`, of which those in `mask` are in its run.
-#[derive(Clone, Copy, Debug)]
-struct Step {
-    at: u32,
-    occ: u16,
-    mask: u8,
+/// The lanes that test the runs: portable code, AVX2, or AVX-512.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Kernel {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
 }
 
-/// [`test_steps`] in the widest lanes the CPU has.
-fn test_steps_fastest(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [u32]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512vl")
-    {
-        // SAFETY: the CPU has AVX-512F and VL.
-        unsafe { test_steps_avx512(disks, steps, rays, crossings) };
-        return;
+impl Kernel {
+    /// The best this CPU has.
+    pub fn fastest() -> Kernel {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+            {
+                return Kernel::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Kernel::Avx2;
+            }
+        }
+        Kernel::Portable
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2.
-        unsafe { test_steps_avx2(disks, steps, rays, crossings) };
-        return;
-    }
-    test_steps(disks, steps, rays, crossings);
 }
 
-/// The exact disk test of every step, [`LANES`] rays at a time, in portable code (the same f64
-/// operations, in the same order, as [`Disk::crossed_by`]); each ray crossed, unless it is
-/// the occluding leaf's own, counts one in `crossings` (by position).
-fn test_steps(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [u32]) {
+/// Test and count the runs of every number of steps with `kernel`, which the CPU must have.
+fn test_all_runs(
+    kernel: Kernel,
+    disks: &[Occluder],
+    runs: &Runs,
+    rays: &Rays,
+    crossings: &mut [u32],
+) {
+    /// Each number of steps' runs by `test::<S>`.
+    macro_rules! by_steps {
+        ($test:ident) => {{
+            $test::<1>(disks, &runs[1], rays, crossings);
+            $test::<2>(disks, &runs[2], rays, crossings);
+            $test::<3>(disks, &runs[3], rays, crossings);
+        }};
+    }
+    const _: () = assert!(MAX_STEPS == 3, "one call per number of steps");
+    match kernel {
+        Kernel::Portable => by_steps!(test_runs),
+        // SAFETY: the caller's CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { by_steps!(test_runs_avx2) },
+        // SAFETY: the caller's CPU has AVX-512F and VL.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { by_steps!(test_runs_avx512) },
+    }
+}
+
+/// The exact disk test of every run of `S` steps, [`LANES`] rays at a time, in portable code
+/// (the same f64 operations, in the same order, as [`Disk::crossed_by`]); each ray crossed,
+/// unless it is the occluding leaf's own, counts one in `crossings` (by position).
+fn test_runs<const S: usize>(disks: &[Occluder], runs: &[Run], rays: &Rays, crossings: &mut [u32]) {
     let lanes = |a: &[f64], at: usize| -> [f64; LANES] {
         a[at..at + LANES].try_into().expect("padded rays")
     };
-    for s in steps {
-        let (o, at) = (&disks[s.occ as usize], s.at as usize);
+    for r in runs {
         let Occluder {
             v,
             n,
@@ -238,44 +257,52 @@ fn test_steps(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [
             a2,
             near,
             leaf,
-        } = *o;
-        let (x, y, z, range) = (
-            lanes(&rays.x, at),
-            lanes(&rays.y, at),
-            lanes(&rays.z, at),
-            lanes(&rays.range, at),
-        );
-        for k in 0..LANES {
-            let (wx, wy, wz) = (x[k], y[k], z[k]);
-            let d = n[0] * wx + n[1] * wy + n[2] * wz;
-            let t = nv / d;
-            let (q0, q1, q2) = (t * wx - v[0], t * wy - v[1], t * wz - v[2]);
-            let qq = q0 * q0 + q1 * q1 + q2 * q2;
-            let yes = (range[k] > near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
-            let live = s.mask >> k & 1 == 1 && rays.leaf[at + k] != leaf;
-            crossings[at + k] += u32::from(yes & live);
+        } = disks[r.occ as usize];
+        for step in 0..S {
+            let (at, mask) = (r.at as usize + step * LANES, step_mask(r.len, step));
+            let (x, y, z, range) = (
+                lanes(&rays.x, at),
+                lanes(&rays.y, at),
+                lanes(&rays.z, at),
+                lanes(&rays.range, at),
+            );
+            for k in 0..LANES {
+                let (wx, wy, wz) = (x[k], y[k], z[k]);
+                let d = n[0] * wx + n[1] * wy + n[2] * wz;
+                let t = nv / d;
+                let (q0, q1, q2) = (t * wx - v[0], t * wy - v[1], t * wz - v[2]);
+                let qq = q0 * q0 + q1 * q1 + q2 * q2;
+                let yes = (range[k] > near) & (d != 0.0) & (t > 0.0) & (t < 1.0) & (qq <= a2);
+                let live = mask >> k & 1 == 1 && rays.leaf[at + k] != leaf;
+                crossings[at + k] += u32::from(yes & live);
+            }
         }
     }
 }
 
-/// [`test_steps`] in AVX2: two registers of four lanes per step, each operation the IEEE f64
+/// [`test_runs`] in AVX2: two registers of four lanes per step, each operation the IEEE f64
 /// operation of the portable code (no FMA), and the comparisons' NaN cases alike (`d != 0` is
 /// true for NaN, the others false).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn test_steps_avx2(disks: &[Occluder], steps: &[Step], rays: &Rays, crossings: &mut [u32]) {
+unsafe fn test_runs_avx2<const S: usize>(
+    disks: &[Occluder],
+    runs: &[Run],
+    rays: &Rays,
+    crossings: &mut [u32],
+) {
     use std::arch::x86_64::*;
     let (zero, one) = (_mm256_setzero_pd(), _mm256_set1_pd(1.0));
     assert!(crossings.len() >= rays.x.len());
-    for s in steps {
-        let (o, at) = (&disks[s.occ as usize], s.at as usize);
-        assert!(at + LANES <= rays.x.len());
+    for r in runs {
+        let o = &disks[r.occ as usize];
+        assert!(r.at as usize + S * LANES <= rays.x.len());
         let b = _mm256_set1_pd;
         let (n0, n1, n2) = (b(o.n[0]), b(o.n[1]), b(o.n[2]));
         let (v0, v1, v2) = (b(o.v[0]), b(o.v[1]), b(o.v[2]));
         let (nv, a2, near) = (b(o.nv), b(o.a2), b(o.near));
         let half = |at: usize| -> i32 {
-            // SAFETY: `at + 4 <= len` (asserted for the step's LANES).
+            // SAFETY: `at + 4 <= len` (asserted for the run's steps).
             let (x, y, z, range) = unsafe {
                 (
                     _mm256_loadu_pd(rays.x.as_ptr().add(at)),
@@ -311,23 +338,26 @@ unsafe fn test_steps_avx2(disks: &[Occluder], steps: &[Step], rays: &Rays, cross
             );
             _mm256_movemask_pd(yes)
         };
-        let mut bits = (half(at) | (half(at + 4) << 4)) as u32 & s.mask as u32;
-        while bits != 0 {
-            let pos = at + bits.trailing_zeros() as usize;
-            crossings[pos] += u32::from(rays.leaf[pos] != o.leaf);
-            bits &= bits - 1;
+        for step in 0..S {
+            let at = r.at as usize + step * LANES;
+            let mut bits = (half(at) | (half(at + 4) << 4)) as u32 & step_mask(r.len, step) as u32;
+            while bits != 0 {
+                let pos = at + bits.trailing_zeros() as usize;
+                crossings[pos] += u32::from(rays.leaf[pos] != o.leaf);
+                bits &= bits - 1;
+            }
         }
     }
 }
 
-/// [`test_steps`] in AVX-512: one register of eight lanes per step, each operation the IEEE
-/// f64 operation of the portable code (no FMA), and the comparisons' NaN cases alike; the
-/// counts are added lane by lane, without a branch.
+/// [`test_runs`] in AVX-512: one register of eight lanes per step, each operation the IEEE f64
+/// operation of the portable code (no FMA), and the comparisons' NaN cases alike; the counts
+/// are added lane by lane under a mask, without a branch.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl")]
-unsafe fn test_steps_avx512(
+unsafe fn test_runs_avx512<const S: usize>(
     disks: &[Occluder],
-    steps: &[Step],
+    runs: &[Run],
     rays: &Rays,
     crossings: &mut [u32],
 ) {
@@ -335,55 +365,60 @@ unsafe fn test_steps_avx512(
     let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
     let ones = _mm256_set1_epi32(1);
     assert!(crossings.len() >= rays.x.len() && rays.leaf.len() == rays.x.len());
-    for s in steps {
-        let (o, at) = (&disks[s.occ as usize], s.at as usize);
-        assert!(at + LANES <= rays.x.len());
+    for r in runs {
+        let o = &disks[r.occ as usize];
+        assert!(r.at as usize + S * LANES <= rays.x.len());
         let b = _mm512_set1_pd;
         let (n0, n1, n2) = (b(o.n[0]), b(o.n[1]), b(o.n[2]));
         let (v0, v1, v2) = (b(o.v[0]), b(o.v[1]), b(o.v[2]));
         let (nv, a2, near) = (b(o.nv), b(o.a2), b(o.near));
-        // SAFETY: `at + LANES` is within the rays and the counts (asserted).
-        unsafe {
-            let (x, y, z, range) = (
-                _mm512_loadu_pd(rays.x.as_ptr().add(at)),
-                _mm512_loadu_pd(rays.y.as_ptr().add(at)),
-                _mm512_loadu_pd(rays.z.as_ptr().add(at)),
-                _mm512_loadu_pd(rays.range.as_ptr().add(at)),
-            );
-            let d = _mm512_add_pd(
-                _mm512_add_pd(_mm512_mul_pd(n0, x), _mm512_mul_pd(n1, y)),
-                _mm512_mul_pd(n2, z),
-            );
-            let t = _mm512_div_pd(nv, d);
-            let q0 = _mm512_sub_pd(_mm512_mul_pd(t, x), v0);
-            let q1 = _mm512_sub_pd(_mm512_mul_pd(t, y), v1);
-            let q2 = _mm512_sub_pd(_mm512_mul_pd(t, z), v2);
-            let qq = _mm512_add_pd(
-                _mm512_add_pd(_mm512_mul_pd(q0, q0), _mm512_mul_pd(q1, q1)),
-                _mm512_mul_pd(q2, q2),
-            );
-            let m = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(range, near);
-            let m = _mm512_mask_cmp_pd_mask::<_CMP_NEQ_UQ>(m, d, zero);
-            let m = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, t, zero);
-            let m = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(m, t, one);
-            let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(m, qq, a2);
-            let own = _mm256_loadu_si256(rays.leaf.as_ptr().add(at) as *const __m256i);
-            let m = m & s.mask & !_mm256_cmpeq_epi32_mask(own, _mm256_set1_epi32(o.leaf as i32));
-            let p = crossings.as_mut_ptr().add(at) as *mut __m256i;
-            let cur = _mm256_loadu_si256(p);
-            _mm256_storeu_si256(p, _mm256_mask_add_epi32(cur, m, cur, ones));
+        let own = _mm256_set1_epi32(o.leaf as i32);
+        for step in 0..S {
+            let at = r.at as usize + step * LANES;
+            // SAFETY: `at + LANES` is within the rays and the counts (asserted).
+            unsafe {
+                let (x, y, z, range) = (
+                    _mm512_loadu_pd(rays.x.as_ptr().add(at)),
+                    _mm512_loadu_pd(rays.y.as_ptr().add(at)),
+                    _mm512_loadu_pd(rays.z.as_ptr().add(at)),
+                    _mm512_loadu_pd(rays.range.as_ptr().add(at)),
+                );
+                let d = _mm512_add_pd(
+                    _mm512_add_pd(_mm512_mul_pd(n0, x), _mm512_mul_pd(n1, y)),
+                    _mm512_mul_pd(n2, z),
+                );
+                let t = _mm512_div_pd(nv, d);
+                let q0 = _mm512_sub_pd(_mm512_mul_pd(t, x), v0);
+                let q1 = _mm512_sub_pd(_mm512_mul_pd(t, y), v1);
+                let q2 = _mm512_sub_pd(_mm512_mul_pd(t, z), v2);
+                let qq = _mm512_add_pd(
+                    _mm512_add_pd(_mm512_mul_pd(q0, q0), _mm512_mul_pd(q1, q1)),
+                    _mm512_mul_pd(q2, q2),
+                );
+                let m = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(range, near);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_NEQ_UQ>(m, d, zero);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, t, zero);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(m, t, one);
+                let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(m, qq, a2);
+                let leaves = _mm256_loadu_si256(rays.leaf.as_ptr().add(at) as *const __m256i);
+                let m = m & step_mask(r.len, step) & !_mm256_cmpeq_epi32_mask(leaves, own);
+                let p = crossings.as_mut_ptr().add(at) as *mut __m256i;
+                let cur = _mm256_loadu_si256(p);
+                _mm256_storeu_si256(p, _mm256_mask_add_epi32(cur, m, cur, ones));
+            }
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::runs::{push_run, MAX_STEPS};
     use super::*;
     use crate::test_util::uniforms;
 
     /// Rays (padded) and disks with hard cases: rays through a disk's rim, rays in a disk's
     /// plane, rays shorter than a disk's nearest point, and a disk's own leaf's ray.
-    fn hard_cases() -> (Vec<Occluder>, Vec<Step>, Rays) {
+    fn hard_cases() -> (Vec<Occluder>, Runs, Rays) {
         let mut u = uniforms(5);
         let mut w: Vec<(V3, u32)> = Vec::new();
         let mut disks = Vec::new();
@@ -436,23 +471,19 @@ mod tests {
         }
         // every disk against runs of every length and alignment, the whole list included
         let mut out = Vec::new();
-        let mut steps = Vec::new();
+        let mut runs: Runs = Default::default();
         for (j, &(d, a, leaf)) in disks.iter().enumerate() {
             out.push(Occluder::new(d, a, leaf));
             let lo = (7 * j) % m;
-            for (lo, hi) in [(lo, (lo + 1 + j % 13).min(m)), (0, m)] {
-                for at in (lo..hi).step_by(LANES) {
-                    let left = (hi - at).min(LANES);
-                    let mask = ((1u32 << left) - 1) as u8;
-                    steps.push(Step {
-                        at: at as u32,
-                        occ: j as u16,
-                        mask,
-                    });
-                }
+            for (lo, hi) in [(lo, (lo + 1 + j % 29).min(m)), (0, m)] {
+                push_run(&mut runs, j as u16, lo as u32, hi as u32);
             }
         }
-        (out, steps, rays)
+        assert!(
+            (1..=MAX_STEPS).all(|s| !runs[s].is_empty()),
+            "runs of every length"
+        );
+        (out, runs, rays)
     }
 
     /// The crossings that `test` counts.
@@ -463,22 +494,24 @@ mod tests {
         c
     }
 
+    /// The counts of the runs' tests with `kernel`.
+    fn counts_with(kernel: Kernel, disks: &[Occluder], runs: &Runs, rays: &Rays) -> Vec<u32> {
+        counts(|c| test_all_runs(kernel, disks, runs, rays, c))
+    }
+
     #[test]
     fn the_lanes_count_what_the_scalar_disk_test_decides() {
-        let (disks, steps, rays) = hard_cases();
-        let got = counts(|c| test_steps(&disks, &steps, &rays, c));
+        let (disks, runs, rays) = hard_cases();
+        let got = counts_with(Kernel::Portable, &disks, &runs, &rays);
         let mut want = vec![0u32; rays.x.len()];
-        for s in &steps {
-            let o = s.occ as usize;
-            for k in 0..LANES {
-                let pos = s.at as usize + k;
-                if s.mask >> k & 1 == 1
-                    && rays.range[pos] > disks[o].near
-                    && rays.leaf[pos] != disks[o].leaf
-                    && disks[o].disk().crossed_by(rays.w(pos))
-                {
-                    want[pos] += 1;
-                }
+        for r in runs.iter().skip(1).flatten() {
+            let o = &disks[r.occ as usize];
+            let (lo, len) = (r.at as usize, r.len as usize);
+            for (pos, count) in want.iter_mut().enumerate().skip(lo).take(len) {
+                let crossed = rays.range[pos] > o.near
+                    && rays.leaf[pos] != o.leaf
+                    && o.disk().crossed_by(rays.w(pos));
+                *count += u32::from(crossed);
             }
         }
         assert!(want.iter().sum::<u32>() > 100, "the cases cross disks");
@@ -488,16 +521,14 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx512_lanes_count_what_the_portable_lanes_count() {
-        if !(std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512vl"))
-        {
+        if Kernel::fastest() != Kernel::Avx512 {
             return;
         }
-        let (disks, steps, rays) = hard_cases();
-        let portable = counts(|c| test_steps(&disks, &steps, &rays, c));
-        // SAFETY: the CPU has AVX-512F.
-        let avx512 = counts(|c| unsafe { test_steps_avx512(&disks, &steps, &rays, c) });
-        assert_eq!(avx512, portable);
+        let (disks, runs, rays) = hard_cases();
+        assert_eq!(
+            counts_with(Kernel::Avx512, &disks, &runs, &rays),
+            counts_with(Kernel::Portable, &disks, &runs, &rays)
+        );
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -506,10 +537,10 @@ mod tests {
         if !std::arch::is_x86_feature_detected!("avx2") {
             return;
         }
-        let (disks, steps, rays) = hard_cases();
-        let portable = counts(|c| test_steps(&disks, &steps, &rays, c));
-        // SAFETY: the CPU has AVX2.
-        let avx2 = counts(|c| unsafe { test_steps_avx2(&disks, &steps, &rays, c) });
-        assert_eq!(avx2, portable);
+        let (disks, runs, rays) = hard_cases();
+        assert_eq!(
+            counts_with(Kernel::Avx2, &disks, &runs, &rays),
+            counts_with(Kernel::Portable, &disks, &runs, &rays)
+        );
     }
 }
