@@ -184,7 +184,7 @@ fn bench_pulse(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("fused", n), |b| {
             b.iter(|| {
                 let cands = candidates(&scene, &s, &pose, Search::Bvh);
-                black_box(fast_pulse(&scene, &s, &plan, &pose, 0, &cands, None).unwrap())
+                black_box(fast_pulse(&scene, &s, &plan, &pose, 0, &cands).unwrap())
             })
         });
         g.bench_function(BenchmarkId::new("members_then_spectrum", n), |b| {

@@ -301,7 +301,7 @@ pub(crate) fn leaf_pose(
 ) -> Result<(Vec<f64>, Vec<f64>, u64)> {
     let m = sonar.n_bins();
     if let Some(pl) = fused_plan(plan, method, cands) {
-        return fast_pulse(scene, sonar, pl, pose, i, cands, None);
+        return fast_pulse(scene, sonar, pl, pose, i, cands);
     }
     let mem = members_of(scene, sonar, pose, i, cands.to_vec())?;
     let (re, im) = match plan {

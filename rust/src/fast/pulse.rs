@@ -50,6 +50,8 @@ struct Part {
     /// Leaves routed to the exact sum (outside the paper model's domain).
     exact: Vec<LeafTerm>,
     count: u64,
+    /// Counting leaves whose factor is not 1.
+    shaded: u64,
     too_close: Option<(usize, f64)>,
 }
 
@@ -72,6 +74,7 @@ fn pulse_chunk(
         kinked: Vec::new(),
         exact: Vec::new(),
         count: 0,
+        shaded: 0,
         too_close: None,
     };
     let sp = &sonar.params;
@@ -125,6 +128,7 @@ fn pulse_chunk(
                     continue;
                 };
                 part.count += 1;
+                part.shaded += u64::from(factor(k) != 1.0);
                 let mut t = leaf_term(sonar, scene, &mb);
                 t.amp *= factor(k);
                 if !po_leaf(sonar, plan, &t, &mut part.grid) {
@@ -161,6 +165,11 @@ fn pulse_chunk(
         }
         if bl.ready_whole(sonar, &out, &inside) {
             part.count += inside.iter().map(|&x| u64::from(x)).sum::<u64>();
+            if factors.is_some() {
+                part.shaded += (0..nb)
+                    .map(|k| u64::from(inside[k] && factor(k) != 1.0))
+                    .sum::<u64>();
+            }
             flush(&mut bl, &mut part);
             continue;
         }
@@ -187,6 +196,7 @@ fn pulse_chunk(
                 }
             };
             part.count += 1;
+            part.shaded += u64::from(factor(k) != 1.0);
             match route {
                 PaperRoute::Skip => {}
                 PaperRoute::Defer => part.exact.push(bl.term(k)),
@@ -221,10 +231,17 @@ fn sample_terms(scene: &Scene, sonar: &FastSonar, pose: &Pose, cands: &[u32]) ->
     out
 }
 
+/// One pose's fast pulse: the windowed band spectrum, the number of counting leaves, and the
+/// number of those whose factor is not 1.
+pub struct Pulse {
+    pub re: Vec<f64>,
+    pub im: Vec<f64>,
+    pub n_leaves: u64,
+    pub n_shaded: u64,
+}
+
 /// The windowed band spectrum `(re, im)` of one pose by the fast method, and its number of
-/// counting leaves. `factors`, by candidate position, scale the counting leaves' amplitudes
-/// (shading's factors, docs/model.md §10; a leaf of factor 0 counts and adds nothing).
-/// `pose_index` only labels errors.
+/// counting leaves ([`shaded_pulse`] without factors). `pose_index` only labels errors.
 pub fn fast_pulse(
     scene: &Scene,
     sonar: &FastSonar,
@@ -232,13 +249,31 @@ pub fn fast_pulse(
     pose: &Pose,
     pose_index: usize,
     cands: &Candidates,
-    factors: Option<&[f64]>,
 ) -> Result<(Vec<f64>, Vec<f64>, u64)> {
+    let p = shaded_pulse(scene, sonar, plan, pose, pose_index, cands, None)?;
+    Ok((p.re, p.im, p.n_leaves))
+}
+
+/// One pose's [`Pulse`] by the fast method. `factors`, by candidate position, scale the
+/// counting leaves' amplitudes (shading's factors, docs/model.md §10; a leaf of factor 0
+/// counts and adds nothing; the factors of candidates that do not count are not read for
+/// the echo). `pose_index` only labels errors.
+pub fn shaded_pulse(
+    scene: &Scene,
+    sonar: &FastSonar,
+    plan: &FastPlan,
+    pose: &Pose,
+    pose_index: usize,
+    cands: &Candidates,
+    factors: Option<&[f64]>,
+) -> Result<Pulse> {
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run the pulse on a pool thread, so that its parallel
         // steps follow one another there (from outside, each step is injected into the pool
         // and this thread sleeps and wakes in between).
-        return rayon::scope(|_| fast_pulse(scene, sonar, plan, pose, pose_index, cands, factors));
+        return rayon::scope(|_| {
+            shaded_pulse(scene, sonar, plan, pose, pose_index, cands, factors)
+        });
     }
     // The node count, from a sample of the counting leaves (see `fast::choose_nodes`).
     let small_plan;
@@ -283,11 +318,17 @@ pub fn fast_pulse(
     refuse_too_close(sonar, pose_index, parts.iter().filter_map(|p| p.too_close))?;
     let m = sonar.n_bins();
     if parts.is_empty() {
-        return Ok((vec![0.0; m], vec![0.0; m], 0));
+        return Ok(Pulse {
+            re: vec![0.0; m],
+            im: vec![0.0; m],
+            n_leaves: 0,
+            n_shaded: 0,
+        });
     }
     // The chunks' grids and direct sums for the first pass's transforms, their leftover
     // leaves (in chunk order) for the later passes, and the count.
     let count = parts.iter().map(|p| p.count).sum();
+    let n_shaded = parts.iter().map(|p| p.shaded).sum();
     let mut grids = Vec::with_capacity(parts.len());
     let mut directs = Vec::with_capacity(parts.len());
     let mut left_over = Vec::with_capacity(parts.len());
@@ -317,7 +358,12 @@ pub fn fast_pulse(
             finish_grids(sonar, first, grids, (direct.re, direct.im))
         },
     );
-    Ok((re, im, count))
+    Ok(Pulse {
+        re,
+        im,
+        n_leaves: count,
+        n_shaded,
+    })
 }
 
 #[cfg(test)]
@@ -376,7 +422,7 @@ mod tests {
             let cands = candidates(&sc, &s, &pose, Search::Bvh);
             for tol in [1e-3, 1e-6, 1e-9, 1e-12] {
                 let plan = FastPlan::new(&s, tol).unwrap();
-                let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands, None).unwrap();
+                let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands).unwrap();
                 assert_eq!(n as usize, mem.len());
                 let err = rel_l2((&re, &im), (&er, &ei));
                 assert!(err <= tol, "{:?} tol {tol:e}: {err:e}", s.params.leaf_model);
@@ -424,7 +470,7 @@ mod tests {
         let cands = Candidates::all(sc.len());
         for tol in [1e-3, 1e-6, 1e-9] {
             let plan = FastPlan::new(&s, tol).unwrap();
-            let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands, None).unwrap();
+            let (re, im, n) = fast_pulse(&sc, &s, &plan, &pose, 0, &cands).unwrap();
             assert_eq!(n as usize, mem.len());
             let err = rel_l2((&re, &im), (&er, &ei));
             assert!(err <= tol, "tol {tol:e}: {err:e}");
@@ -439,12 +485,12 @@ mod tests {
         let plan = FastPlan::new(s, 1e-6).unwrap();
         let cands = candidates(&sc, s, &pose, Search::Bvh);
         assert!(cands.len() > 2 * chunk_len(cands.len(), plan.nufft.nf));
-        let a = fast_pulse(&sc, s, &plan, &pose, 0, &cands, None).unwrap();
+        let a = fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap();
-        let b = pool.install(|| fast_pulse(&sc, s, &plan, &pose, 0, &cands, None).unwrap());
+        let b = pool.install(|| fast_pulse(&sc, s, &plan, &pose, 0, &cands).unwrap());
         assert_eq!(a, b);
     }
 
@@ -484,7 +530,7 @@ mod tests {
         let plan = FastPlan::new(&s, 1e-6).unwrap();
         let cands = candidates(&sc, &s, &pose, Search::Bvh);
         for res in [
-            fast_pulse(&sc, &s, &plan, &pose, 0, &cands, None).map(|_| ()),
+            fast_pulse(&sc, &s, &plan, &pose, 0, &cands).map(|_| ()),
             crate::lobe::members(&sc, &s, &pose, 0, Search::Bvh).map(|_| ()),
         ] {
             match res {

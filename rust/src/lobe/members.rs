@@ -3,7 +3,6 @@
 use crate::error::{Error, Result};
 use crate::lobe::block::classify_block;
 use crate::lobe::block::CB;
-use crate::lobe::block::{classify_candidates, BlockView};
 use crate::lobe::candidates::Candidates;
 use crate::lobe::rule::classify;
 use crate::lobe::rule::Decision;
@@ -80,68 +79,33 @@ pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32)
     }
 }
 
-/// Per chunk of candidates: the positions of the counting leaves, and the first too-close leaf.
-type Positions = (Vec<u32>, Option<(usize, f64)>);
-
-/// The positions in `cands` of the counting leaves among the candidates at positions `span`
-/// (ascending), and the first too-close leaf: the test of [`classify_many`], [`CB`] at a time.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn counting_chunk(
-    scene: &Scene,
-    sonar: &Sonar,
-    pose: &Pose,
-    cands: &Candidates,
-    span: std::ops::Range<usize>,
-) -> Positions {
-    let mut out = Vec::with_capacity(span.len());
-    let mut too_close = None;
-    let mut v = BlockView::default();
-    let mut pos = span.start;
-    let mut blocks = cands.blocks(span);
-    while let Some((block, consecutive)) = blocks.next_block() {
-        classify_candidates(
-            scene,
-            sonar,
-            pose,
-            block,
-            consecutive,
-            &mut too_close,
-            &mut v,
-        );
-        for (k, &i) in block.iter().enumerate() {
-            let counts = match v.verdict[k] {
-                1 => true,
-                2 => classify_member(scene, sonar, pose, i).is_some(),
-                _ => false,
-            };
-            if counts {
-                out.push((pos + k) as u32);
-            }
-        }
-        pos += block.len();
-    }
-    (out, too_close)
-}
-
-/// The positions in `cands` of the pose's counting leaves, ascending: the leaves of
-/// [`members_of`], with its error, for a pass that finds its leaves by candidate position.
-pub fn counting_positions(
-    scene: &Scene,
-    sonar: &Sonar,
-    pose: &Pose,
-    pose_index: usize,
-    cands: &Candidates,
-) -> Result<Vec<u32>> {
+/// The positions in `cands` (ascending) of the candidates within the sonar's ranges
+/// (`min_range <= r <= range_limit`, `r > 0`, `r` as [`classify`] computes it): a superset
+/// of the counting leaves, found without the lobe test, for a pass that needs their places
+/// before it tests the lobe (shading's rays).
+pub fn ranged_positions(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &Candidates) -> Vec<u32> {
     let n = cands.len();
-    let parts: Vec<Positions> = (0..n.div_ceil(CLASSIFY_CHUNK))
+    let (lo, hi) = (sonar.params.min_range, sonar.range_limit);
+    let parts: Vec<Vec<u32>> = (0..n.div_ceil(CLASSIFY_CHUNK))
         .into_par_iter()
         .map(|c| {
             let span = c * CLASSIFY_CHUNK..n.min((c + 1) * CLASSIFY_CHUNK);
-            counting_chunk(scene, sonar, pose, cands, span)
+            let mut out = Vec::with_capacity(span.len());
+            let mut pos = span.start;
+            let mut blocks = cands.blocks(span);
+            while let Some((block, _)) = blocks.next_block() {
+                for (k, &i) in block.iter().enumerate() {
+                    let r = leaf_range(scene, pose, i);
+                    if r > 0.0 && r >= lo && r <= hi {
+                        out.push((pos + k) as u32);
+                    }
+                }
+                pos += block.len();
+            }
+            out
         })
         .collect();
-    refuse_too_close(sonar, pose_index, parts.iter().filter_map(|p| p.1))?;
-    Ok(parts.into_iter().flat_map(|p| p.0).collect())
+    parts.concat()
 }
 
 /// The range (m) of stored leaf `i` from the pose, exactly as [`classify`] computes it.

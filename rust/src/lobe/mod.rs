@@ -19,7 +19,7 @@ pub mod walk;
 pub(crate) use block::{classify_candidates, BlockView, CB};
 pub use bound::{test_box, AngularBound, BoxTest};
 pub(crate) use members::{classify_member, refuse_too_close};
-pub use members::{counting_positions, farthest_member_range, members, members_of, Member, Search};
+pub use members::{farthest_member_range, members, members_of, ranged_positions, Member, Search};
 pub use pieces::{branch_members, PieceMember};
 pub use pieces_heard::{branch_members_heard, HeardPiece};
 pub use receivers::{

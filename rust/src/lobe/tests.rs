@@ -110,49 +110,42 @@ fn the_farthest_member_range_is_the_largest_range_of_the_members() {
     assert!(counted > 40 && errors > 5, "{counted} {errors}");
 }
 
-/// The leaves at `counting_positions` are exactly the members (same leaves, same too-close
-/// error), for every sonar of `sonars()`, poses in and out of the cloud, both too-close modes.
+/// The leaves at `ranged_positions` hold every member (whatever the too-close mode) and only
+/// leaves within the sonar's ranges, for every sonar of `sonars()` and poses in and out of the
+/// cloud.
 #[test]
-fn counting_positions_pick_exactly_the_members() {
+fn ranged_positions_hold_every_member_and_only_leaves_in_range() {
     let poses = [
         Pose::new([0.0; 3], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap(),
         Pose::new([3.0, -2.0, 1.0], [-0.3, 1.0, 0.2], [0.0, 0.0, 1.0]).unwrap(),
     ];
-    let (mut counted, mut errors) = (0, 0);
+    let (mut counted, mut beyond) = (0, 0);
     for too_close in [false, true] {
         let scene = leaves_around(20_000, 23, too_close);
         for mut sonar in sonars() {
-            for mode in [TooClose::Skip, TooClose::Error] {
-                sonar.params.too_close = mode;
-                for (i, pose) in poses.iter().enumerate() {
-                    let cands = candidates(&scene, &sonar, pose, Search::Bvh);
-                    let want = members_of(&scene, &sonar, pose, i, cands.to_vec());
-                    let got = counting_positions(&scene, &sonar, pose, i, &cands);
-                    match (want, got) {
-                        (Ok(w), Ok(g)) => {
-                            assert!(g.windows(2).all(|p| p[0] < p[1]), "ascending");
-                            let mut leaves: Vec<u32> =
-                                g.iter().map(|&p| cands.get(p as usize)).collect();
-                            leaves.sort_unstable();
-                            let ids: Vec<u32> = w.iter().map(|m| m.index).collect();
-                            assert_eq!(leaves, ids, "pose {i}");
-                            counted += usize::from(!ids.is_empty());
-                        }
-                        (Err(w), Err(g)) => {
-                            assert_eq!(w.to_string(), g.to_string());
-                            errors += 1;
-                        }
-                        (w, g) => panic!(
-                            "pose {i}: {:?} against {:?}",
-                            w.map(|m| m.len()),
-                            g.map(|p| p.len())
-                        ),
-                    }
+            sonar.params.too_close = TooClose::Skip;
+            for (i, pose) in poses.iter().enumerate() {
+                let cands = candidates(&scene, &sonar, pose, Search::Bvh);
+                let members = members_of(&scene, &sonar, pose, i, cands.to_vec()).unwrap();
+                let got = ranged_positions(&scene, &sonar, pose, &cands);
+                assert!(got.windows(2).all(|p| p[0] < p[1]), "ascending");
+                let leaves: std::collections::HashSet<u32> =
+                    got.iter().map(|&p| cands.get(p as usize)).collect();
+                for m in &members {
+                    assert!(leaves.contains(&m.index), "pose {i}: member {}", m.index);
                 }
+                for &leaf in &leaves {
+                    let c = scene.centers.get(leaf as usize);
+                    let d = [0, 1, 2].map(|k| c[k] - pose.position[k]);
+                    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    assert!(r > 0.0 && r >= sonar.params.min_range && r <= sonar.range_limit);
+                }
+                counted += usize::from(!members.is_empty());
+                beyond += leaves.len() - members.len();
             }
         }
     }
-    assert!(counted > 10 && errors > 2, "{counted} {errors}");
+    assert!(counted > 10 && beyond > 100, "{counted} {beyond}");
 }
 
 /// The walk's parallel top levels change nothing: the candidates (runs and all) equal

@@ -11,8 +11,25 @@ pub fn shading_factor(tau: f64, crossings: u32, blocked: bool) -> f64 {
     } else if crossings == 0 {
         1.0
     } else {
-        // (tau^2 raised to m by squaring: m reaches thousands in a row of leaves)
-        (tau * tau).powi(crossings.min(i32::MAX as u32) as i32)
+        // (m reaches thousands in a row of leaves)
+        power(tau * tau, crossings)
+    }
+}
+
+/// `x^n` by squaring, the multiplications in one fixed order (that of compiler-rt's
+/// `__powidf2`), so that every caller gets the same bits: `powi` may be expanded otherwise
+/// where the compiler knows the exponent.
+fn power(x: f64, mut n: u32) -> f64 {
+    let (mut base, mut acc) = (x, 1.0);
+    loop {
+        if n & 1 == 1 {
+            acc *= base;
+        }
+        n >>= 1;
+        if n == 0 {
+            return acc;
+        }
+        base *= base;
     }
 }
 
@@ -32,6 +49,36 @@ pub fn two_way_shading_factor(tau: f64, m_out: u32, m_back: u32, blocked: bool) 
     }
 }
 
+/// [`shading_factor`] for one transmission, its values for the first counts held: the same
+/// bits, without raising `tau^2` to a power for every scatterer.
+pub struct ShadingFactors {
+    tau: f64,
+    held: [f64; Self::HELD],
+}
+
+impl ShadingFactors {
+    const HELD: usize = 64;
+
+    pub fn new(tau: f64) -> ShadingFactors {
+        ShadingFactors {
+            tau,
+            held: std::array::from_fn(|m| shading_factor(tau, m as u32, false)),
+        }
+    }
+
+    /// [`shading_factor`]`(tau, crossings, blocked)`.
+    #[inline(always)]
+    pub fn get(&self, crossings: u32, blocked: bool) -> f64 {
+        if blocked {
+            0.0
+        } else if let Some(&f) = self.held.get(crossings as usize) {
+            f
+        } else {
+            shading_factor(self.tau, crossings, false)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -47,6 +94,33 @@ mod tests {
                 two_way_shading_factor(0.6, m, m, false).to_bits(),
                 shading_factor(0.6, m, false).to_bits()
             );
+        }
+    }
+
+    #[test]
+    fn the_power_is_the_runtime_powi_bit_for_bit() {
+        let powi = std::hint::black_box(f64::powi);
+        for x in [0.09, 0.36, 0.5, 0.81, 0.998_001, 1.0] {
+            for n in (1..300).chain([5000, 1 << 20]) {
+                let n = std::hint::black_box(n);
+                assert_eq!(power(x, n as u32).to_bits(), powi(x, n).to_bits(), "{x}^{n}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_held_factors_are_the_bits_of_the_factor() {
+        for tau in [0.0, 0.3, 0.6, 0.999, 1.0] {
+            let held = ShadingFactors::new(tau);
+            for m in (0..200).chain([5000, u32::MAX]) {
+                for blocked in [false, true] {
+                    assert_eq!(
+                        held.get(m, blocked).to_bits(),
+                        shading_factor(tau, m, blocked).to_bits(),
+                        "tau {tau}, m {m}, blocked {blocked}"
+                    );
+                }
+            }
         }
     }
 

@@ -9,12 +9,12 @@
 use super::{cost_exact, cost_fast, fused_plan, leaf_pose, Method};
 use crate::echo::{branch_term, leaf_term, sum_branch_terms, sum_terms, BranchTerm, LeafTerm};
 use crate::error::{four_digits, invalid, short, Result};
-use crate::fast::pulse::fast_pulse;
+use crate::fast::pulse::shaded_pulse;
 use crate::fast::{fast_branch_spectrum, fast_sum_terms, FastPlan, FastSonar, MIN_TOL};
 use crate::lobe::candidates::Candidates;
-use crate::lobe::{branch_members, counting_positions, members_of, PieceMember};
+use crate::lobe::{branch_members, members_of, ranged_positions, PieceMember};
 use crate::physics::pose::Pose;
-use crate::physics::shading::shading_factor;
+use crate::physics::shading::ShadingFactors;
 use crate::scene::Scene;
 use crate::shade::{cast, Target};
 use crate::sonar::Sonar;
@@ -218,9 +218,10 @@ fn shading_factors(
             segment: p.segment,
         }))
         .collect();
+    let factors = ShadingFactors::new(sh.leaf_transmission);
     cast(scene, pose.position, &targets, sh.branches_block)
         .par_iter()
-        .map(|s| shading_factor(sh.leaf_transmission, s.crossings, s.blocked))
+        .map(|s| factors.get(s.crossings, s.blocked))
         .collect()
 }
 
@@ -280,9 +281,11 @@ pub fn pose_echo(
     Ok(with_wood(scene, sonar, plan, echo, &wood))
 }
 
-/// The leaves' echo shaded by the fused fast path: the counting leaves' positions among the
-/// candidates, their rays cast with the pieces', then the fused pulse with each leaf's factor;
-/// where no leaf's factor differs from 1, the unshaded fused pulse (the same bits).
+/// The leaves' echo shaded by the fused fast path: the rays cast to the candidates within the
+/// sonar's ranges (every counting leaf among them, found without the lobe test, which the
+/// pulse makes) and to the pieces, then the fused pulse with each leaf's factor, which counts
+/// the leaves shaded; where no factor differs from 1, the unshaded fused pulse (the same
+/// bits).
 #[allow(clippy::too_many_arguments)]
 fn shaded_fused(
     scene: &Scene,
@@ -294,7 +297,7 @@ fn shaded_fused(
     pieces: Vec<PieceMember>,
     mut wood: Vec<BranchTerm>,
 ) -> Result<PoseEcho> {
-    let positions = counting_positions(scene, sonar, pose, pose_index, cands)?;
+    let positions = ranged_positions(scene, sonar, pose, cands);
     let ids: Vec<u32> = positions
         .par_iter()
         .map(|&p| cands.get(p as usize))
@@ -305,9 +308,9 @@ fn shaded_fused(
         t.amp *= f;
     }
     wood.retain(|t| t.amp != 0.0);
-    let n_shaded = leaf_f.par_iter().filter(|&&f| f != 1.0).count() as u64;
-    let by_position = (n_shaded > 0).then(|| by_position(cands.len(), &positions, leaf_f));
-    let (re, im, n_leaves) = fast_pulse(
+    let any_shaded = leaf_f.par_iter().any(|&f| f != 1.0);
+    let by_position = any_shaded.then(|| by_position(cands.len(), &positions, leaf_f));
+    let pulse = shaded_pulse(
         scene,
         sonar,
         plan,
@@ -318,8 +321,8 @@ fn shaded_fused(
     )?;
     let echo = PoseEcho {
         n_pieces: pieces.len() as u64,
-        n_shaded,
-        ..PoseEcho::of_leaves(re, im, n_leaves)
+        n_shaded: pulse.n_shaded,
+        ..PoseEcho::of_leaves(pulse.re, pulse.im, pulse.n_leaves)
     };
     Ok(with_wood(scene, sonar, Some(plan), echo, &wood))
 }
