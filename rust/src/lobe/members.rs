@@ -80,32 +80,40 @@ pub(crate) fn classify_member(scene: &Scene, sonar: &Sonar, pose: &Pose, i: u32)
 }
 
 /// The positions in `cands` (ascending) of the candidates within the sonar's ranges
-/// (`min_range <= r <= range_limit`, `r > 0`, `r` as [`classify`] computes it): a superset
-/// of the counting leaves, found without the lobe test, for a pass that needs their places
-/// before it tests the lobe (shading's rays).
-pub fn ranged_positions(scene: &Scene, sonar: &Sonar, pose: &Pose, cands: &Candidates) -> Vec<u32> {
+/// (`min_range <= r <= range_limit`, `r > 0`, `r` as [`classify`] computes it), and their
+/// stored indices: a superset of the counting leaves, found without the lobe test, for a pass
+/// that needs their places before it tests the lobe (shading's rays).
+pub fn ranged_positions(
+    scene: &Scene,
+    sonar: &Sonar,
+    pose: &Pose,
+    cands: &Candidates,
+) -> (Vec<u32>, Vec<u32>) {
     let n = cands.len();
     let (lo, hi) = (sonar.params.min_range, sonar.range_limit);
-    let parts: Vec<Vec<u32>> = (0..n.div_ceil(CLASSIFY_CHUNK))
+    let parts: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CLASSIFY_CHUNK))
         .into_par_iter()
         .map(|c| {
             let span = c * CLASSIFY_CHUNK..n.min((c + 1) * CLASSIFY_CHUNK);
-            let mut out = Vec::with_capacity(span.len());
+            let mut at = Vec::with_capacity(span.len());
+            let mut ids = Vec::with_capacity(span.len());
             let mut pos = span.start;
             let mut blocks = cands.blocks(span);
             while let Some((block, _)) = blocks.next_block() {
                 for (k, &i) in block.iter().enumerate() {
                     let r = leaf_range(scene, pose, i);
                     if r > 0.0 && r >= lo && r <= hi {
-                        out.push((pos + k) as u32);
+                        at.push((pos + k) as u32);
+                        ids.push(i);
                     }
                 }
                 pos += block.len();
             }
-            out
+            (at, ids)
         })
         .collect();
-    parts.concat()
+    let (at, ids): (Vec<Vec<u32>>, Vec<Vec<u32>>) = parts.into_iter().unzip();
+    (at.concat(), ids.concat())
 }
 
 /// The range (m) of stored leaf `i` from the pose, exactly as [`classify`] computes it.

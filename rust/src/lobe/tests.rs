@@ -127,10 +127,11 @@ fn ranged_positions_hold_every_member_and_only_leaves_in_range() {
             for (i, pose) in poses.iter().enumerate() {
                 let cands = candidates(&scene, &sonar, pose, Search::Bvh);
                 let members = members_of(&scene, &sonar, pose, i, cands.to_vec()).unwrap();
-                let got = ranged_positions(&scene, &sonar, pose, &cands);
+                let (got, ids) = ranged_positions(&scene, &sonar, pose, &cands);
                 assert!(got.windows(2).all(|p| p[0] < p[1]), "ascending");
-                let leaves: std::collections::HashSet<u32> =
-                    got.iter().map(|&p| cands.get(p as usize)).collect();
+                let at: Vec<u32> = got.iter().map(|&p| cands.get(p as usize)).collect();
+                assert_eq!(ids, at, "the stored indices at the positions");
+                let leaves: std::collections::HashSet<u32> = ids.into_iter().collect();
                 for m in &members {
                     assert!(leaves.contains(&m.index), "pose {i}: member {}", m.index);
                 }

@@ -103,7 +103,11 @@ mod tests {
         for x in [0.09, 0.36, 0.5, 0.81, 0.998_001, 1.0] {
             for n in (1..300).chain([5000, 1 << 20]) {
                 let n = std::hint::black_box(n);
-                assert_eq!(power(x, n as u32).to_bits(), powi(x, n).to_bits(), "{x}^{n}");
+                assert_eq!(
+                    power(x, n as u32).to_bits(),
+                    powi(x, n).to_bits(),
+                    "{x}^{n}"
+                );
             }
         }
     }

@@ -297,11 +297,7 @@ fn shaded_fused(
     pieces: Vec<PieceMember>,
     mut wood: Vec<BranchTerm>,
 ) -> Result<PoseEcho> {
-    let positions = ranged_positions(scene, sonar, pose, cands);
-    let ids: Vec<u32> = positions
-        .par_iter()
-        .map(|&p| cands.get(p as usize))
-        .collect();
+    let (positions, ids) = ranged_positions(scene, sonar, pose, cands);
     let factors = shading_factors(scene, sonar, pose, &ids, &pieces);
     let (leaf_f, wood_f) = factors.split_at(ids.len());
     for (t, &f) in wood.iter_mut().zip(wood_f) {
