@@ -222,6 +222,36 @@ def test_a_partial_store_left_by_a_killed_run_is_cleared_and_the_store_made(tmp_
     assert not (tmp_path / "out.zarr.partial").exists()
 
 
+@pytest.mark.parametrize("with_root", [True, False])
+def test_a_partial_store_killed_in_a_metadata_write_is_cleared_and_the_store_made(
+    tmp_path, with_root
+):
+    # zarr writes each file through a temporary `<stem>.<32 hex>.partial` beside it; a kill in
+    # that write leaves the temporary, with or without the root's zarr.json
+    from batecho.dataset.store import _lay_out
+
+    spec = tiny_spec(n_samples=2, pulses_per_sample=1, **{"output.chunk_size": 2})
+    partial = tmp_path / "out.zarr.partial"
+    if with_root:
+        _lay_out(partial, spec, False)
+    else:
+        partial.mkdir()
+    (partial / "zarr.0123456789abcdef0123456789abcdef.partial").write_text("{")
+    generate(spec, tmp_path / "out.zarr", workers=1, progress=False)
+    assert verify(tmp_path / "out.zarr").n_chunks == 1
+    assert not partial.exists()
+
+
+def test_a_partial_folder_holding_a_users_file_named_like_a_zarr_temporary_is_refused(tmp_path):
+    spec = tiny_spec(n_samples=2, pulses_per_sample=1, **{"output.chunk_size": 2})
+    own = tmp_path / "out.zarr.partial"
+    own.mkdir()
+    (own / "notes.partial").write_text("my notes\n")
+    with pytest.raises(DatasetError, match="out.zarr.partial"):
+        generate(spec, tmp_path / "out.zarr", workers=1, progress=False)
+    assert (own / "notes.partial").read_text() == "my notes\n"
+
+
 def test_a_local_run_counts_each_chunk_on_the_progress_bar_as_it_completes(monkeypatch):
     import threading
     from concurrent.futures import ThreadPoolExecutor

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import time
 import warnings
@@ -504,10 +505,15 @@ def _create(store: StoreLike, spec: DatasetSpec, overwrite: bool = False) -> Any
     return _zarr().open_group(str(store), mode="r+", use_consolidated=False)
 
 
+# zarr's local store writes each file through a temporary ``<stem>.<32 hex>.partial`` beside
+# it, which a run killed in that write leaves behind.
+_ZARR_TEMPORARY = re.compile(r"zarr\.[0-9a-f]{32}\.partial")
+
+
 def _left_by_a_killed_run(partial: Path) -> bool:
     """Whether ``partial`` (``OUT.zarr.partial``) may be deleted: missing, an empty folder,
-    or a zarr hierarchy (a ``zarr.json`` and folders only), as a run killed while laying out
-    its store leaves it; not a file or a folder of anything else."""
+    or a zarr hierarchy as a run killed while laying out its store leaves it (a ``zarr.json``
+    or zarr's temporary for it, and folders); not a file or a folder of anything else."""
     if not partial.exists() and not partial.is_symlink():
         return True
     if partial.is_symlink() or not partial.is_dir():
@@ -515,8 +521,14 @@ def _left_by_a_killed_run(partial: Path) -> bool:
     entries = list(partial.iterdir())
     if not entries:
         return True
-    return (partial / "zarr.json").is_file() and all(
-        e.name == "zarr.json" or (e.is_dir() and not e.is_symlink()) for e in entries
+
+    def root_file(e: Path) -> bool:
+        return (e.name == "zarr.json" or _ZARR_TEMPORARY.fullmatch(e.name) is not None) and (
+            e.is_file() and not e.is_symlink()
+        )
+
+    return any(root_file(e) for e in entries) and all(
+        root_file(e) or (e.is_dir() and not e.is_symlink()) for e in entries
     )
 
 
