@@ -65,6 +65,39 @@ fn face_of(w: V3) -> (usize, f64, f64) {
     )
 }
 
+/// Each face's box `(u_lo, u_hi, v_lo, v_hi)` of the directions `at` on it (empty: infinite
+/// bounds the wrong way round). Four boxes per face are kept, for every fourth direction, and
+/// merged at the end, so that consecutive directions do not wait on each other's bounds
+/// (minima and maxima: the same boxes in any order).
+fn face_boxes(at: &[(usize, f64, f64)]) -> [(f64, f64, f64, f64); 6] {
+    const EMPTY: (f64, f64, f64, f64) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    let grow = |b: &mut (f64, f64, f64, f64), &(_, u, v): &(usize, f64, f64)| {
+        *b = (b.0.min(u), b.1.max(u), b.2.min(v), b.3.max(v));
+    };
+    let mut boxes = [[EMPTY; 6]; 4];
+    let mut quads = at.chunks_exact(4);
+    for q in &mut quads {
+        for (k, a) in q.iter().enumerate() {
+            grow(&mut boxes[k][a.0], a);
+        }
+    }
+    for a in quads.remainder() {
+        grow(&mut boxes[0][a.0], a);
+    }
+    let mut out = boxes[0];
+    for part in &boxes[1..] {
+        for (b, p) in out.iter_mut().zip(part) {
+            *b = (b.0.min(p.0), b.1.max(p.1), b.2.min(p.2), b.3.max(p.3));
+        }
+    }
+    out
+}
+
 /// The range of slopes `x_b / x_a` over a ball of centre `(vb, z)` and radius `rho` in the
 /// `(b, a)` plane (`z > rho`), widened.
 #[inline(always)]
@@ -201,16 +234,7 @@ impl Buffer {
     pub(super) fn new(w: &[V3], h_hint: f64) -> Buffer {
         let n = w.len();
         let at: Vec<(usize, f64, f64)> = w.par_iter().map(|&w| face_of(w)).collect();
-        let mut bbox = [(
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ); 6];
-        for &(f, u, v) in &at {
-            let b = &mut bbox[f];
-            *b = (b.0.min(u), b.1.max(u), b.2.min(v), b.3.max(v));
-        }
+        let bbox = face_boxes(&at);
         let area: f64 = bbox
             .iter()
             .filter(|b| b.0 <= b.1)
@@ -541,6 +565,27 @@ mod tests {
                 }
             }
             assert!(crossed > 1000, "the disks are crossed ({crossed})");
+        }
+    }
+
+    #[test]
+    fn the_faces_boxes_are_those_of_the_directions_taken_one_by_one() {
+        let mut u = uniforms(13);
+        for n in [0, 1, 3, 4, 5, 7, 1001] {
+            let at: Vec<(usize, f64, f64)> = (0..n)
+                .map(|_| face_of(unit_vector(&mut u).map(|x| 2.0 * x)))
+                .collect();
+            let mut want = [(
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            ); 6];
+            for &(f, u, v) in &at {
+                let b = &mut want[f];
+                *b = (b.0.min(u), b.1.max(u), b.2.min(v), b.3.max(v));
+            }
+            assert_eq!(face_boxes(&at), want, "{n} directions");
         }
     }
 
