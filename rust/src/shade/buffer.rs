@@ -485,9 +485,24 @@ impl Buffer {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::test_util::{uniforms, unit_vector};
+
+    /// A block of at most [`DISKS`] disks (centre relative to the sonar, unit normal, radius)
+    /// lane by lane, as [`Buffer::disk_boxes`] takes them (unused lanes 0).
+    pub(in crate::shade) fn disk_lanes(
+        batch: &[(V3, V3, f64)],
+    ) -> ([[f64; DISKS]; 3], [[f64; DISKS]; 3], [f64; DISKS]) {
+        let (mut v, mut n, mut a) = ([[0.0; DISKS]; 3], [[0.0; DISKS]; 3], [0.0; DISKS]);
+        for (k, &(c, nn, r)) in batch.iter().enumerate() {
+            for d in 0..3 {
+                (v[d][k], n[d][k]) = (c[d], nn[d]);
+            }
+            a[k] = r;
+        }
+        (v, n, a)
+    }
 
     /// The cell of each of the `n` targets binned in `buf`.
     fn cells_of_targets(buf: &Buffer, n: usize) -> Vec<usize> {
@@ -530,15 +545,7 @@ mod tests {
             let cell_of = cells_of_targets(&buf, targets.len());
             let mut crossed = 0;
             for batch in disks.chunks(DISKS) {
-                let mut v = [[0.0; DISKS]; 3];
-                let mut n = [[0.0; DISKS]; 3];
-                let mut a = [0.0; DISKS];
-                for (k, &(c, nn, r)) in batch.iter().enumerate() {
-                    for d in 0..3 {
-                        (v[d][k], n[d][k]) = (c[d], nn[d]);
-                    }
-                    a[k] = r;
-                }
+                let (v, n, a) = disk_lanes(batch);
                 let mut reached = vec![vec![false; buf.n_cells()]; DISKS];
                 let b = buf.disk_boxes(&v, &n, &a);
                 for (k, rect) in (0..DISKS).map(|k| (k, buf.rect_of(&b, k))) {

@@ -290,6 +290,7 @@ unsafe fn list_block_avx512(
 
 #[cfg(test)]
 mod tests {
+    use super::super::buffer::tests::disk_lanes;
     use super::*;
     use crate::math::vec3::dot;
     use crate::test_util::{uniforms, unit_vector};
@@ -298,15 +299,7 @@ mod tests {
     fn both_listings(buf: &Buffer, disks: &[(V3, V3, f64)]) -> (Vec<Run>, Vec<Run>) {
         let (mut narrow, mut wide): (Runs, Runs) = Default::default();
         for (c, batch) in disks.chunks(DISKS).enumerate() {
-            let mut v = [[0.0; DISKS]; 3];
-            let mut n = [[0.0; DISKS]; 3];
-            let mut a = [1.0; DISKS];
-            for (k, &(c, nn, r)) in batch.iter().enumerate() {
-                for d in 0..3 {
-                    (v[d][k], n[d][k]) = (c[d], nn[d]);
-                }
-                a[k] = r;
-            }
+            let (v, n, a) = disk_lanes(batch);
             let b = buf.disk_boxes(&v, &n, &a);
             let occ0 = (c * DISKS) as u16;
             list_block(buf, &b, batch.len(), occ0, &v, &a, &mut narrow, false);
