@@ -37,11 +37,10 @@ pub(super) struct Buffer {
     /// `1 / h`, by which [`Buffer::coord`] scales.
     inv_h: f64,
     n_cells: usize,
-    /// The targets of cell `c` are `order[start[c]..start[c + 1]]` (indices into the caller's
-    /// targets); cells of one row of one face are consecutive.
+    /// The targets in cell order: those of cell `c` hold the positions `start[c]..start[c + 1]`;
+    /// cells of one row of one face are consecutive.
     pub(super) start: Vec<u32>,
-    pub(super) order: Vec<u32>,
-    /// The position of target `i` in `order` (`order[slot[i]] == i`).
+    /// The position of target `i` (an index into the caller's targets).
     pub(super) slot: Vec<u32>,
 }
 
@@ -286,7 +285,6 @@ impl Buffer {
             inv_h: 1.0 / h,
             n_cells,
             start: Vec::new(),
-            order: Vec::new(),
             slot: Vec::new(),
         };
         // counting sort of the targets by cell
@@ -299,15 +297,13 @@ impl Buffer {
             start[c + 1] += start[c];
         }
         let mut fill = start.clone();
-        let mut order = vec![0u32; n];
         let mut slot = vec![0u32; n];
-        for (i, &c) in cells.iter().enumerate() {
+        for (s, &c) in slot.iter_mut().zip(&cells) {
             let pos = &mut fill[c as usize];
-            (order[*pos as usize], slot[i]) = (i as u32, *pos);
+            *s = *pos;
             *pos += 1;
         }
         buf.start = start;
-        buf.order = order;
         buf.slot = slot;
         buf
     }
@@ -504,15 +500,12 @@ pub(super) mod tests {
         (v, n, a)
     }
 
-    /// The cell of each of the `n` targets binned in `buf`.
+    /// The cell of each of the `n` targets binned in `buf` (the last whose positions start
+    /// at or before the target's).
     fn cells_of_targets(buf: &Buffer, n: usize) -> Vec<usize> {
-        let mut cell_of = vec![0usize; n];
-        for c in 0..buf.n_cells() {
-            for k in buf.start[c]..buf.start[c + 1] {
-                cell_of[buf.order[k as usize] as usize] = c;
-            }
-        }
-        cell_of
+        (0..n)
+            .map(|i| buf.start.partition_point(|&s| s <= buf.slot[i]) - 1)
+            .collect()
     }
 
     /// Disks facing the sonar, edge-on to it and at random, near and far, on every face and
