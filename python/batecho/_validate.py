@@ -149,6 +149,14 @@ def finite_scalar(x: Any, name: str, *, strict: bool = False) -> float:
     return v
 
 
+def flag(x: Any, name: str) -> bool:
+    """``x`` as a bool; TypeError for anything but a bool (NumPy's included), so that text such
+    as ``"no"`` is refused rather than taken as true."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {x!r}")
+    return bool(x)
+
+
 def integer(x: Any, name: str, minimum: int = 0, *, wrong_type: type = ValueError) -> int:
     """``x`` as an int >= ``minimum``. A bool or a non-integer raises ``wrong_type``, a
     smaller integer ValueError."""

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import flag
 from ..echoes.simulate import Echoes, lobe_members, simulate
 from ..flight.poses import Poses
 from ..sonar.sonar import Sonar
@@ -466,6 +467,7 @@ def generate(
     dies, however it dies.
     """
     spec = _as_spec(spec)
+    progress = flag(progress, "progress")
     if workers is not None and (
         isinstance(workers, bool) or int(workers) != workers or workers < 1
     ):

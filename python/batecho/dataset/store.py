@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import flag
 from .scenes import scene_label_info, scene_label_names
 from .spec import DatasetSpec, SpecError
 
@@ -759,6 +760,7 @@ def verify(store: StoreLike, deep: bool = True) -> VerifyReport:
 
     Returns a :class:`VerifyReport`; raises :class:`DatasetError` naming what is wrong.
     """
+    deep = flag(deep, "deep")
     t0 = time.perf_counter()
     g = _open_group(store, mode="r")
     if g is None:
@@ -793,7 +795,7 @@ def open_dataset(store: StoreLike, check: bool = False) -> Any:
     :func:`verify` first; otherwise only that it is a batecho store with an intact spec."""
     import xarray as xr
 
-    if check:
+    if flag(check, "check"):
         verify(store)
     else:
         g = _open_group(store, mode="r")

@@ -12,6 +12,7 @@ import numpy as np
 
 from .. import _core
 from .._equal import EqualByValue, same
+from .._validate import flag
 from ..flight.poses import Poses
 from ..forest.clearance import (
     DEFAULT_MIN_CLEARANCE_M,
@@ -388,8 +389,7 @@ def leaf_sights(
     if len(pose) != 1:
         raise ValueError(f"leaf_sights takes one pose; got {len(pose)} (index it: poses[i])")
     refuse_receivers(sonar, "leaf_sights")
-    if not isinstance(branches_block, (bool, np.bool_)):
-        raise TypeError(f"branches_block must be True or False, got {branches_block!r}")
+    branches_block = flag(branches_block, "branches_block")
     sc = as_scene(scene)
     ids, crossings, blocked = _core.leaf_sights(
         sc._core,

@@ -56,7 +56,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .._resources import check_memory
-from .._validate import integer
+from .._validate import flag, integer
 from ..echoes.envelope import envelope_stride
 from ..echoes.simulate import method_and_tol
 from ..flight.mount import SonarMount
@@ -318,8 +318,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             float(collision_penalty),
             float(success_reward),
         )
-        if not isinstance(branches, bool):
-            raise TypeError(f"branches must be True or False, got {branches!r}")
+        flag(branches, "branches")
         if shading is not None and not isinstance(shading, Shading):
             raise TypeError(f"shading must be None or a batecho.Shading, got {shading!r}")
         if sonar is None:

@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import flag
+
 __all__ = ["draw_episode", "top_view"]
 
 #: Leaves drawn at most (a random subset of a large forest, the same for every frame).
@@ -20,6 +22,7 @@ def draw_episode(ax: Any, env: Any, path: np.ndarray | None = None, lobes: bool 
     (a sector of the sonar's reach and beamwidth) onto matplotlib axes ``ax``."""
     from matplotlib.patches import Circle, Wedge
 
+    lobes = flag(lobes, "lobes")
     forest = env.forest
     if forest is not None and forest.n_trees:
         c = forest.leaves.centers

@@ -10,7 +10,7 @@ import numpy as np
 
 from .._pickle import ReadOnlyOnLoading
 from .._resources import BYTES_PER_POSE, check_memory
-from .._validate import finite, finite_scalar, positive_scalar, readonly, real_array
+from .._validate import finite, finite_scalar, flag, positive_scalar, readonly, real_array
 from .mount import SonarMount
 from .poses import Poses
 from .trajectories import Trajectory
@@ -79,6 +79,7 @@ class Flight(ReadOnlyOnLoading):
             raise TypeError(
                 f"forest must be a batecho.Forest or Scene, got {type(forest).__name__}"
             )
+        bark = flag(bark, "bark")
         if hasattr(forest, "bark"):
             return np.asarray(method(self.positions, bark=bark))
         return np.asarray(method(self.positions))

@@ -10,6 +10,7 @@ controller tracks it through the full dynamics of docs/model.md §8 with fixed R
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
@@ -180,11 +181,15 @@ class QuadrotorSim:
             raise ValueError(
                 f"dt={h:g} s exceeds the motor time constant {tau:g} s; RK4 would be inaccurate"
             )
-        if isinstance(n_steps, bool) or not float(n_steps).is_integer() or n_steps < 1:
-            raise ValueError(f"n_steps must be an integer >= 1, got {n_steps}")
+        if isinstance(n_steps, bool) or not isinstance(n_steps, numbers.Real):
+            raise TypeError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+        if not float(n_steps).is_integer() or n_steps < 1:
+            raise ValueError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+        # (a count beyond any memory in a few digits, not hundreds)
+        steps = f"{int(n_steps)}" if n_steps < 1e15 else f"{float(n_steps):.3g}"
         check_memory(
             float(n) * float(n_steps) * BYTES_PER_PATH_POINT,
-            f"a step of {n} drones by n_steps = {int(n_steps)} RK4 steps (its path)",
+            f"a step of {n} drones by n_steps = {steps} RK4 steps (its path)",
             "step fewer RK4 steps per call",
         )
         path = self._swarm.step(

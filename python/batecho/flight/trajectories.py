@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._resources import BYTES_PER_POSE, check_memory
-from .._validate import finite, finite_scalar, positive_scalar, real_array, vectors
+from .._validate import finite, finite_scalar, flag, positive_scalar, real_array, vectors
 from ._paths import TINY, center_xy, gerono, heading_mode, point
 from .poses import Poses
 
@@ -251,7 +251,7 @@ class Circle(Trajectory):
                 f"= {w:.3g} rad/s is too small or large for float64 (a lap's duration or the "
                 "path's snap overflows); use an ordinary speed and radius"
             )
-        self.omega = (-1.0 if clockwise else 1.0) * w
+        self.omega = (-1.0 if flag(clockwise, "clockwise") else 1.0) * w
         self.duration = 2.0 * math.pi / abs(self.omega)
         self._set_heading(heading, target, yaw_deg, np.array([*self.center, self.altitude]))
 
@@ -487,7 +487,7 @@ class Waypoints(Trajectory):
         if len(pts) < 2:
             raise ValueError(f"Waypoints needs at least 2 points, got {len(pts)}")
         self.speed = positive_scalar(speed, "speed")
-        self.closed = bool(closed)
+        self.closed = flag(closed, "closed")
         if self.closed:
             if len(pts) < 3:
                 raise ValueError("a closed Waypoints path needs at least 3 points")

@@ -42,7 +42,7 @@ import numpy as np
 from .. import _core
 from .._pickle import MadeAgainOnLoading, ReadOnlyOnLoading
 from .._resources import SlowWarning, check_memory
-from .._validate import finite, positive_scalar, readonly, real_array, vectors
+from .._validate import finite, flag, positive_scalar, readonly, real_array, vectors
 from ._so3 import E3, cross3, hat, orthonormalise, triple
 from .controller import SE3Gains, desired_attitude, flat_reference, se3_control
 from .record import Flight
@@ -171,6 +171,9 @@ class Quadrotor(MadeAgainOnLoading):
         if not (J > 0).all():
             raise ValueError(f"inertia must be > 0, got {J}")
         object.__setattr__(self, "inertia", J)
+        object.__setattr__(
+            self, "drag_feedforward", flag(self.drag_feedforward, "drag_feedforward")
+        )
         d = triple(self.drag, "drag")
         if (d < 0).any():
             raise ValueError(f"drag must be >= 0, got {d}")
@@ -217,7 +220,7 @@ class Quadrotor(MadeAgainOnLoading):
             k_v=g.k_v,
             k_R=g.k_R,
             k_Omega=g.k_Omega,
-            drag_feedforward=bool(self.drag_feedforward),
+            drag_feedforward=self.drag_feedforward,
         )
         object.__setattr__(self, "_airframe", airframe)
 

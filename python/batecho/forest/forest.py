@@ -33,7 +33,7 @@ from .._geometry import rot_z
 from .._pickle import ReadOnlyOnLoading
 from .._random import generator, int_seed, spawn
 from .._resources import BYTES_PER_LEAF, check_memory, warn_if_slow
-from .._validate import finite_scalar, integer, positive_scalar, real_array, vectors
+from .._validate import finite_scalar, flag, integer, positive_scalar, real_array, vectors
 from ..trees.branches import Branches
 from ..trees.grow import grow_tree
 from ..trees.leaves import Leaves
@@ -136,7 +136,7 @@ class Forest(ReadOnlyOnLoading):
             a.setflags(write=False)
         self.window = None if window is None else _as_window(window)
         self.intensity = intensity
-        self.scale_leaves = bool(scale_leaves)
+        self.scale_leaves = flag(scale_leaves, "scale_leaves")
         self.params: dict[str, Any] = dict(params or {})
         self._leaves: Leaves | None = None
         self._scene: Scene | None = None
@@ -462,9 +462,7 @@ class Forest(ReadOnlyOnLoading):
         """The :class:`~batecho.Scene` of all leaves (built once); with ``branches=True``, of
         the leaves and the trees' woody skeletons (:attr:`branches`), which then echo and may
         block (docs/model.md §9-§10). The default is the paper's model: leaves alone."""
-        if not isinstance(branches, bool):
-            raise TypeError(f"branches must be True or False, got {branches!r}")
-        if not branches:
+        if not flag(branches, "branches"):
             if self._scene is None:
                 self._scene = Scene(self.leaves)
             return self._scene
@@ -541,6 +539,7 @@ class Forest(ReadOnlyOnLoading):
         a forest without trees (a Poisson draw may hold none) is ``inf`` away."""
         from .clearance import solid_clearance
 
+        bark = flag(bark, "bark")
         if self.n_trees == 0:
             return np.full(len(vectors(points, "points")), np.inf)
         return solid_clearance(self, points, bark=bark).distance

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _core
 from .._resources import check_copies
-from .._validate import vectors
+from .._validate import flag, vectors
 from ..trees.branches import Branches
 from ..trees.leaves import Leaves, as_leaves
 
@@ -96,6 +96,7 @@ class Scene:
         for a point on a leaf or in a branch.
         """
         check_copies(points=points)
+        return_index = flag(return_index, "return_index")
         pts = vectors(points, "points")
         dist, idx = self._core.clearance(pts)
         return (dist, idx) if return_index else dist

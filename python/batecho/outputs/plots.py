@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import positive_scalar
+from .._validate import flag, positive_scalar
 from ..echoes.simulate import samples_within
 
 __all__ = [
@@ -124,6 +124,8 @@ def plot_impulse(
     e.g. on the inner panels of a grid.
     """
     _one_receiver(echoes, "plot_impulse")
+    envelope, legend = flag(envelope, "envelope"), flag(legend, "legend")
+    range_axis = flag(range_axis, "range_axis")
     index = _pose(echoes, index)
     plt = _plt()
     fig = None
@@ -218,6 +220,7 @@ def plot_impulses(
     The panels share the time axis: its label and ticks are on the bottom row only and the
     range axis on the top row only; one legend below the grid.
     """
+    sharey = flag(sharey, "sharey")
     plt = _plt()
     indices = [_pose(echoes, i) for i in indices]
     if not indices:
@@ -312,6 +315,7 @@ def plot_echo_image(
     branches, the wood's own echo is outlined on top (:func:`overlay_wood_echoes`).
     """
     _one_receiver(echoes, "plot_echo_image")
+    wood = flag(wood, "wood")
     dynamic_range_db = positive_scalar(dynamic_range_db, "dynamic_range_db", strict=True)
     plt = _plt()
     fig = None

@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._validate import flag
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -82,6 +84,8 @@ def plot_tree(
     fixed seed); equal scale on all axes."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+    bark, leaves = flag(bark, "bark"), flag(leaves, "leaves")
+    colorbar = flag(colorbar, "colorbar")
     fig, ax3 = _axes3d(ax, (7.0, 7.5))
     lo, hi = tree.bounds()
     if bark and len(tree.bark_faces):
@@ -133,6 +137,7 @@ def plot_forest_map(
 
     from ..forest.ipp import _as_window
 
+    crowns = flag(crowns, "crowns")
     fig: Any
     if ax is None:
         fig, ax2 = plt.subplots(figsize=(7.0, 6.0))
@@ -198,6 +203,7 @@ def plot_forest_3d(
 ) -> Figure:
     """A 3-D view of a forest: a random ``max_leaves`` of its leaves (fixed seed) coloured by
     height, and each trunk as a line from its base to its top; equal scale on all axes."""
+    trunks = flag(trunks, "trunks")
     fig, ax3 = _axes3d(ax, (9.0, 7.0))
     if forest.n_trees == 0:
         raise ValueError("the forest has no trees")

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .._resources import echoes_bytes_per_pulse
+from .._validate import flag
 from ..echoes.export import wood_and_shading
 from ..echoes.simulate import DEFAULT_METHOD, DEFAULT_TOL
 from ..forest.clearance import ClearanceWarning, SolidClearance, low_clearance, solid_clearance
@@ -199,6 +200,7 @@ def run_scenefile(
     """
     from ..echoes.simulate import simulate
 
+    plots = flag(plots, "plots")
     if isinstance(sf, (str, os.PathLike)):
         sf = SceneFile.from_path(sf)
     elif not isinstance(sf, SceneFile):

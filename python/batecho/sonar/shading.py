@@ -9,9 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from .._validate import finite_scalar
+from .._validate import finite_scalar, flag
 
 #: The default one-way amplitude transmission past one leaf (docs/model.md §10): the mean
 #: Fresnel-Kirchhoff amplitude on rays that cross an opaque 2.5 cm disk 2 m from the sonar and
@@ -42,9 +40,7 @@ class Shading:
         if not 0.0 <= t <= 1.0:
             raise ValueError(f"leaf_transmission must be in [0, 1], got {t!r}")
         object.__setattr__(self, "leaf_transmission", t)
-        if not isinstance(self.branches_block, (bool, np.bool_)):
-            raise TypeError(f"branches_block must be True or False, got {self.branches_block!r}")
-        object.__setattr__(self, "branches_block", bool(self.branches_block))
+        object.__setattr__(self, "branches_block", flag(self.branches_block, "branches_block"))
 
     def _core_tuple(self) -> tuple[float, bool]:
         return (self.leaf_transmission, self.branches_block)

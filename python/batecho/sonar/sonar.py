@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import _core
 from .._pickle import MadeAgainOnLoading
-from .._validate import finite_scalar, integer, keep_python_values, positive_scalar
+from .._validate import finite_scalar, flag, integer, keep_python_values, positive_scalar
 from .absorption import Atmosphere
 from .beam import Beam, horseshoe_bat_beamwidth_deg
 from .receivers import MAX_RECEIVERS, Receiver, binaural_receivers
@@ -177,8 +177,7 @@ class Sonar(MadeAgainOnLoading):
             raise TypeError(
                 f"shading must be None or a batecho.Shading, got {type(self.shading).__name__}"
             )
-        if not isinstance(self.spreading, bool):
-            raise TypeError(f"spreading must be True or False, got {self.spreading!r}")
+        flag(self.spreading, "spreading")
         # (numbers as numbers: text such as "400e3" would be kept as given and fail later)
         scale = finite_scalar(self.branch_piece_scale, "branch_piece_scale", strict=True)
         if not 0.0 < scale <= 1.0:

@@ -26,7 +26,7 @@ import numpy as np
 from .. import _core
 from .._geometry import crosses, norms
 from .._pickle import ReadOnlyOnLoading
-from .._validate import positive_scalar, readonly, real_array
+from .._validate import flag, positive_scalar, readonly, real_array
 from .leaves import MAX_COORDINATE_M, Leaves
 
 #: The largest OBJ or MTL file a load reads (bytes), as the core's: 1 GiB. A load also needs
@@ -153,6 +153,7 @@ class Mesh(ReadOnlyOnLoading):
 
         trimesh is optional and imported only here. ``metadata`` holds ``face_groups`` (index
         into ``group_names``, leaf cards in their leaf group) and ``n_bark_faces``."""
+        include_leaves = flag(include_leaves, "include_leaves")
         try:
             import trimesh
         except ImportError as exc:
@@ -359,6 +360,7 @@ def write_obj(
         The OBJ path.
     """
     p = _as_path(path, "path")
+    mtl = flag(mtl, "mtl")
     if p.suffix.lower() == ".mtl":
         raise ValueError(f"path {p} ends in .mtl; give the .obj path (the MTL goes beside it)")
     bv = _vertices(bark_vertices, "bark_vertices")

@@ -17,7 +17,7 @@ import numpy as np
 
 from .._geometry import rot_z
 from .._pickle import ReadOnlyOnLoading
-from .._validate import finite_scalar, frozen, point3, positive_scalar
+from .._validate import finite_scalar, flag, frozen, point3, positive_scalar
 from ._shape import bounds
 from .branches import Branches
 from .leaves import Leaves
@@ -251,6 +251,7 @@ class Tree(ReadOnlyOnLoading):
         ``x -> base + scale * Rz (x - base) + translation``. Leaf radii keep their size unless
         ``scale_leaves`` (leaf size is a species trait, tree size is not)."""
         rot = rot_z(finite_scalar(rotation_z_deg, "rotation_z_deg", strict=True))
+        scale_leaves = flag(scale_leaves, "scale_leaves")
         t = point3(translation, "translation")
         s = positive_scalar(scale, "scale", strict=True)
         b = self.base
