@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -385,6 +386,16 @@ def test_a_circle_whose_angular_rate_cannot_be_flown_in_float64_is_refused_by_na
     # in fly)
     with pytest.raises(ValueError, match="speed / radius"):
         Circle((0.0, 0.0), radius=radius, speed=speed)
+
+
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
+@pytest.mark.parametrize("speed", [1e300, 1e-300], ids=["overflows", "underflows"])
+def test_waypoints_whose_speed_cannot_be_flown_in_float64_are_refused_by_name(speed, closed):
+    # (scipy's "must not contain infs or NaNs", or LinAlgError "Colocation matrix is singular")
+    points = [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0]]
+    shown = re.escape(f"speed={speed:g} m/s")
+    with pytest.raises(ValueError, match=f"{shown} over waypoints .* too small or large"):
+        Waypoints(points, speed=speed, closed=closed)
 
 
 def test_waypoints_pass_through_the_points_at_peak_speed():

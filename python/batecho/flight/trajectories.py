@@ -522,8 +522,32 @@ class Waypoints(Trajectory):
         scale = vmax / self.speed  # seconds per unit of u
         self.knot_times = u * scale
         self.duration = float(self.knot_times[-1])
-        self._spline = make_interp_spline(self.knot_times, pts, k=5, bc_type=bc)
+        self._spline = self._time_spline(pts, bc, float(chords.sum()))
         self._set_heading(heading, target, yaw_deg, None)
+
+    def _time_spline(self, pts: np.ndarray, bc: Any, length: float) -> Any:
+        """The path's spline in time through ``pts`` at :attr:`knot_times`; ValueError naming
+        the speed (and the waypoints' ``length``, m) where float64 cannot hold it (knot times
+        that overflow or run together, or derivatives that overflow)."""
+        from scipy.interpolate import make_interp_spline
+
+        t = self.knot_times
+        problem = (
+            f"speed={self.speed:g} m/s over waypoints {length:.3g} m apart in all is too small "
+            "or large for float64 (the path's duration or its derivatives overflow); use an "
+            "ordinary speed"
+        )
+        if not (np.isfinite(t).all() and (np.diff(t) > 0).all()):
+            raise ValueError(problem)
+        try:
+            with np.errstate(all="ignore"):
+                spl = make_interp_spline(t, pts, k=5, bc_type=bc)
+        except (ValueError, np.linalg.LinAlgError):
+            raise ValueError(problem) from None
+        with np.errstate(over="ignore", invalid="ignore"):
+            if not all(np.isfinite(spl(t, order)).all() for order in range(5)):
+                raise ValueError(problem)
+        return spl
 
     def _derivative(self, t: np.ndarray, order: int) -> np.ndarray:
         T = self.duration
