@@ -130,3 +130,21 @@ def test_a_number_of_rk4_steps_beyond_any_memory_is_named_in_a_few_digits():
     with pytest.raises(MemoryError, match=r"n_steps = 1e\+300 RK4 steps") as e:
         sim.step([0.0, 0.0, 0.0], n_steps=1e300)
     assert len(str(e.value)) < 300
+
+
+# A number given a flag: True would be taken as 1 (a 1 m band, a 1 m/s path, a 1 m circle).
+NUMBERS = {
+    "band (Forest.reaches)": ("band", lambda v: forest().reaches(altitude=2.0, band=v)),
+    "altitude (Forest.reaches)": ("altitude", lambda v: forest().reaches(altitude=v)),
+    "speed (Line)": ("speed", lambda v: Line((0.0, 0.0, 1.0), (1.0, 0.0, 1.0), speed=v)),
+    "radius (Circle)": ("radius", lambda v: Circle([0.0, 0.0], radius=v)),
+    "radius_m (Flight.collision)": ("radius_m", lambda v: flight().collision(forest(), v)),
+}
+
+
+@pytest.mark.parametrize("number", NUMBERS)
+@pytest.mark.parametrize("value", [True, np.False_])
+def test_a_number_given_true_or_false_is_refused_by_name(number, value):
+    name, call = NUMBERS[number]
+    with pytest.raises(TypeError, match=f"{name} must be a real number, got {value!r}"):
+        call(value)

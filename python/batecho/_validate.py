@@ -120,7 +120,8 @@ def frozen(a: Any, dtype: Any = np.float64) -> np.ndarray:
 
 
 def _number(x: Any, name: str, strict: bool) -> float:
-    if strict and (isinstance(x, bool) or not isinstance(x, numbers.Real)):
+    # (a flag is never a number: True would be taken as 1)
+    if isinstance(x, (bool, np.bool_)) or (strict and not isinstance(x, numbers.Real)):
         raise TypeError(f"{name} must be a real number, got {x!r}")
     try:
         return float(x)
@@ -131,9 +132,9 @@ def _number(x: Any, name: str, strict: bool) -> float:
 def positive_scalar(
     x: Any, name: str, allow_zero: bool = False, *, strict: bool = False, unit: str = ""
 ) -> float:
-    """``x`` as a finite float > 0 (>= 0 with ``allow_zero``). ``strict`` refuses anything
-    but a real number (bools and strings included) with TypeError; ``unit`` is named in the
-    message."""
+    """``x`` as a finite float > 0 (>= 0 with ``allow_zero``). A bool is refused with
+    TypeError, and with ``strict`` anything but a real number (strings included); ``unit`` is
+    named in the message."""
     v = _number(x, name, strict)
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         op = ">=" if allow_zero else ">"
