@@ -398,6 +398,21 @@ def test_waypoints_whose_speed_cannot_be_flown_in_float64_are_refused_by_name(sp
         Waypoints(points, speed=speed, closed=closed)
 
 
+def test_waypoints_too_close_for_float64_at_their_coordinates_are_refused_by_name():
+    # (1e-20 m steps at z = 1 m: the fit's rounding set the speed, and the duration came out
+    # 5e4 times too long, silently)
+    points = [[0.0, 0.0, 1.0], [1e-20, 0.0, 1.0], [1e-20, 1e-20, 1.0]]
+    with pytest.raises(ValueError, match="waypoints 0 and 1 are 1e-20 m apart, below 1e-12"):
+        Waypoints(points)
+
+
+def test_a_step_too_short_for_the_paths_length_is_refused_by_name():
+    # (SciPy's "Expect x to not have duplicates": the step was lost in the sum of the others)
+    square = [[0, 0, 1], [4, 0, 1], [4, 4, 1], [0, 4, 1.0], [1e-15, 0.0, 1.0]]
+    with pytest.raises(ValueError, match="waypoints 4 and 5 are 1e-15 m apart"):
+        Waypoints(square, closed=True)
+
+
 def test_waypoints_pass_through_the_points_at_peak_speed():
     traj = TIMED["waypoints"]
     np.testing.assert_allclose(traj.position(traj.knot_times), traj.points, atol=1e-9)

@@ -460,6 +460,12 @@ class Line(Trajectory):
         return d, np.zeros_like(d), np.zeros_like(d)
 
 
+#: The shortest step between waypoints, relative to the larger of the largest coordinate and
+#: the path's length (the fit's rounding is about 1e-16 of them: at 1e-12 its speed is off by
+#: about 1e-8, at 1e-14 by 3e-4, and shorter steps merge knots).
+WAYPOINT_RESOLUTION = 1e-12
+
+
 class Waypoints(Trajectory):
     """A smooth path through ``points`` (k, 3) m: a quintic B-spline in time.
 
@@ -503,6 +509,14 @@ class Waypoints(Trajectory):
         if not (chords > 0).all():
             i = int(np.argmax(~(chords > 0)))
             raise ValueError(f"waypoints {i} and {i + 1} coincide")
+        extent = max(float(np.abs(pts).max()), float(chords.sum()))
+        if not (chords >= WAYPOINT_RESOLUTION * extent).all():
+            i = int(np.argmax(~(chords >= WAYPOINT_RESOLUTION * extent)))
+            raise ValueError(
+                f"waypoints {i} and {i + 1} are {chords[i]:.3g} m apart, below "
+                f"{WAYPOINT_RESOLUTION:g} of the path's size ({extent:.3g} m, its largest "
+                "coordinate or its length): too close for float64 to fit a path through them"
+            )
         self.points = pts
         seg = chords.copy()
         if not self.closed:
