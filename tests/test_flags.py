@@ -148,3 +148,19 @@ def test_a_number_given_true_or_false_is_refused_by_name(number, value):
     name, call = NUMBERS[number]
     with pytest.raises(TypeError, match=f"{name} must be a real number, got {value!r}"):
         call(value)
+
+
+@pytest.mark.parametrize(
+    "kept",
+    [
+        lambda v: batecho.Sonar(spreading=v).spreading,
+        lambda v: batecho.Shading(branches_block=v).branches_block,
+        lambda v: (
+            dataclasses.replace(batecho.Quadrotor.crazyflie(), drag_feedforward=v).drag_feedforward
+        ),
+        lambda v: Waypoints(WAYPOINTS, closed=v).closed,
+    ],
+    ids=["spreading", "branches_block", "drag_feedforward", "closed"],
+)
+def test_an_option_given_numpys_true_keeps_pythons_true(kept):
+    assert type(kept(np.True_)) is bool

@@ -318,7 +318,7 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
             float(collision_penalty),
             float(success_reward),
         )
-        flag(branches, "branches")
+        branches = flag(branches, "branches")
         if shading is not None and not isinstance(shading, Shading):
             raise TypeError(f"shading must be None or a batecho.Shading, got {shading!r}")
         if sonar is None:

@@ -177,7 +177,7 @@ class Sonar(MadeAgainOnLoading):
             raise TypeError(
                 f"shading must be None or a batecho.Shading, got {type(self.shading).__name__}"
             )
-        flag(self.spreading, "spreading")
+        object.__setattr__(self, "spreading", flag(self.spreading, "spreading"))
         # (numbers as numbers: text such as "400e3" would be kept as given and fail later)
         scale = finite_scalar(self.branch_piece_scale, "branch_piece_scale", strict=True)
         if not 0.0 < scale <= 1.0:
