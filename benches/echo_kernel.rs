@@ -15,6 +15,7 @@ use batecho::echo::{heard_terms, leaf_term, sum_terms, LeafTerm};
 use batecho::fast::pulse::fast_pulse;
 use batecho::fast::FastSonar;
 use batecho::fast::{fast_band_spectrum, fast_sum_terms, FastPlan};
+use batecho::interrupt::NEVER;
 use batecho::lobe::{candidates, candidates_heard, members, place_receivers, Search};
 use batecho::physics::beam::GaussianBeam;
 use batecho::physics::pose::Pose;
@@ -267,7 +268,7 @@ fn bench_ears(c: &mut Criterion) {
             ("fast_tol1e-6", Method::Fast { tol: 1e-6 }),
         ] {
             for (name, s) in &sonars {
-                let run = || simulate(&scene, s, &[pose], false, Search::Bvh, m).unwrap();
+                let run = || simulate(&scene, s, &[pose], false, Search::Bvh, m, &NEVER).unwrap();
                 assert!(run().n_leaves.iter().all(|&k| k as usize == n));
                 g.bench_function(BenchmarkId::new(method, name), |b| {
                     b.iter(|| black_box(run()))

@@ -46,12 +46,15 @@ pub enum Error {
     /// A request larger than the memory limit (`budget`), or one the allocator refused; the
     /// bindings raise `MemoryError`.
     TooLarge(String),
+    /// The caller raised the call's [`crate::interrupt::Interrupt`] before it ended.
+    Interrupted,
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::InvalidInput(msg) | Error::Obj(msg) | Error::TooLarge(msg) => f.write_str(msg),
+            Error::Interrupted => f.write_str("interrupted before the call ended"),
             Error::TooClose { pose, leaf, range, min_range } => write!(
                 f,
                 "leaf {leaf} is {range:.3e} m from pose {pose}, closer than min_range_m = {min_range} m; \

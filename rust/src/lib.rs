@@ -12,6 +12,7 @@ pub mod echo;
 pub mod error;
 pub mod fast;
 pub mod flight;
+pub mod interrupt;
 pub mod lobe;
 pub mod math;
 pub mod physics;

@@ -14,6 +14,7 @@ use crate::error::{four_digits, invalid, short, Result};
 use crate::fast::pulse::fast_pulse;
 use crate::fast::FastSonar;
 use crate::fast::{band_tightening, fast_band_spectrum, FastPlan};
+use crate::interrupt::Interrupt;
 use crate::lobe::candidates::Candidates;
 use crate::lobe::{candidates, farthest_member_range, members_of, Search};
 use crate::physics::pose::Pose;
@@ -140,7 +141,8 @@ pub fn cost_fast(n: usize, m: usize, plan: &FastPlan) -> f64 {
         + 2.0 * p * m as f64
 }
 
-/// Echoes of every pose by `method`, poses in parallel.
+/// Echoes of every pose by `method`, poses in parallel; each pose first looks at `stop`, so
+/// that a raised interrupt ends the call within about one pose's time.
 pub fn simulate(
     scene: &Scene,
     sonar: &FastSonar,
@@ -148,12 +150,13 @@ pub fn simulate(
     with_impulse: bool,
     search: Search,
     method: Method,
+    stop: &Interrupt,
 ) -> Result<Echoes> {
     if rayon::current_thread_index().is_none() {
         // Called from outside the pool: run on a pool thread. A parallel iterator over one
         // pose runs that pose on the calling thread, where the BVH walk cannot split (see
         // `bvh_candidates`), and the walk is a large part of a pulse.
-        return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method));
+        return rayon::scope(|_| simulate(scene, sonar, poses, with_impulse, search, method, stop));
     }
     check_leaf_sizes(scene, sonar)?;
     scatter::check_branch_sizes(scene, sonar)?;
@@ -218,13 +221,22 @@ pub fn simulate(
         }
     };
     if !sonar.params.receivers.is_empty() {
-        return receivers::simulate_heard(scene, sonar, poses, with_impulse, search, method, plan);
+        return receivers::simulate_heard(
+            scene,
+            sonar,
+            poses,
+            with_impulse,
+            (search, method),
+            plan,
+            stop,
+        );
     }
     let plain = scatter::is_plain(scene, sonar);
     let per_pose: Vec<(scatter::PoseEcho, Vec<f64>)> = poses
         .par_iter()
         .enumerate()
         .map(|(i, pose)| {
+            stop.check()?;
             let cands = candidates(scene, sonar, pose, search);
             let echo = if plain {
                 let (re, im, count) =

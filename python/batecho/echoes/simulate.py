@@ -283,7 +283,8 @@ def simulate(
     echoes are the same either way.
 
     Poses run in parallel in Rust with the GIL released; results are bit-identical for any
-    number of threads.
+    number of threads. Ctrl-C (or any signal handler that raises) stops the call between
+    poses, within about one pose's time, and its exception propagates; nothing is returned.
     """
     sonar, poses = _check(sonar, poses)
     margin = check_margin(min_clearance_m)

@@ -57,14 +57,14 @@ pub(crate) fn simulate_many_py<'py>(
     let method = method_from(method, tol)?;
     let inner: Vec<_> = scenes.iter().map(|s| s.inner.clone()).collect();
     let so = sonar.inner.clone();
-    let outs = crate::pool::released(py, move || {
+    let outs = crate::pool::interruptible(py, move |stop| {
         let jobs: Vec<_> = inner
             .iter()
             .zip(&poses)
             .map(|(s, p)| (&**s, p.as_slice()))
             .collect();
-        simulate_many(&jobs, &so, false, search, method)
-    })
+        simulate_many(&jobs, &so, false, search, method, stop)
+    })?
     .map_err(to_py)?;
     Ok(outs.into_iter().map(|e| spectra(py, e)).collect())
 }

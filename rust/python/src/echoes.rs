@@ -110,9 +110,9 @@ pub(crate) fn simulate_py<'py>(
     let method = method_from(method, tol)?;
     let (sc, so) = (scene.inner.clone(), sonar.inner.clone());
     let poses_len = poses.len();
-    let out = crate::pool::released(py, move || {
-        simulate::simulate(&sc, &so, &poses, impulse, search, method)
-    })
+    let out = crate::pool::interruptible(py, move |stop| {
+        simulate::simulate(&sc, &so, &poses, impulse, search, method, stop)
+    })?
     .map_err(to_py)?;
     let p = poses_len;
     let m = out.n_bins;

@@ -12,6 +12,7 @@ use crate::echo::LeafTerm;
 use crate::echo::{heard_branch_term, BranchTerm};
 use crate::error::Result;
 use crate::fast::{fast_sum_terms, FastPlan, FastSonar};
+use crate::interrupt::Interrupt;
 use crate::lobe::HeardPiece;
 use crate::lobe::{
     branch_members_heard, candidates_heard, place_receivers, PlacedReceiver, Search,
@@ -70,9 +71,9 @@ pub fn simulate_heard(
     sonar: &FastSonar,
     poses: &[Pose],
     with_impulse: bool,
-    search: Search,
-    method: Method,
+    (search, method): (Search, Method),
     plan: Option<Arc<FastPlan>>,
+    stop: &Interrupt,
 ) -> Result<Echoes> {
     let m = sonar.n_bins();
     let n = sonar.params.n_samples;
@@ -82,6 +83,7 @@ pub fn simulate_heard(
         .par_iter()
         .enumerate()
         .map(|(i, pose)| {
+            stop.check()?;
             let rxs = place_receivers(sonar, pose);
             let cands = candidates_heard(scene, sonar, pose, &rxs, search);
             let (ids, mut terms) = heard_pass(scene, sonar, pose, i, &rxs, &cands)?;
