@@ -38,6 +38,7 @@ CALLS = {
 }
 
 
+@pytest.mark.filterwarnings("ignore::batecho.CallBandWarning")  # (calls beyond the band too)
 @pytest.mark.parametrize("kind", CALLS)
 def test_received_equals_numpy_convolve_without_noise(two_ears, kind):
     call = CALLS[kind]()
@@ -352,6 +353,7 @@ def test_a_call_longer_than_the_record_costs_no_more_than_the_record():
     assert r["raised"] is None, r
 
 
+@pytest.mark.filterwarnings("ignore::batecho.CallBandWarning")  # (white noise as a call)
 def test_received_of_a_call_longer_than_the_record_equals_numpy_convolve(one_ear):
     n = one_ear.times.size
     call = Call(np.random.default_rng(3).normal(size=n + 500), 400e3)
@@ -360,6 +362,7 @@ def test_received_of_a_call_longer_than_the_record_equals_numpy_convolve(one_ear
     assert np.max(np.abs(got - want)) <= 1e-10 * np.max(np.abs(want))
 
 
+@pytest.mark.filterwarnings("ignore::batecho.CallBandWarning")  # (white noise as a call)
 def test_compressed_of_a_call_longer_than_the_record_is_its_correlation_with_the_call(one_ear):
     n = one_ear.times.size
     call = Call(np.random.default_rng(3).normal(size=n + 500), 400e3)
@@ -367,3 +370,31 @@ def test_compressed_of_a_call_longer_than_the_record_is_its_correlation_with_the
     want = np.array([np.dot(x[t:], call.samples[: n - t]) for t in range(0, n, 997)])
     got = one_ear.compressed(call)[0][::997] * call.energy
     assert np.max(np.abs(got - want)) <= 1e-9 * np.max(np.abs(want))
+
+
+@pytest.mark.parametrize("record", ["received", "compressed"])
+def test_a_call_mostly_beyond_the_band_warns_naming_its_share_and_the_band(one_ear, record):
+    # an 80-40 kHz sweep: about half its energy lies below the default 60-80 kHz band
+    with pytest.warns(
+        batecho.CallBandWarning, match=r"(4[5-9]|5[0-5])% of the call's energy .*60000, 80000"
+    ):
+        getattr(one_ear, record)(Call.linear_fm(80e3, 40e3, 2e-3))
+
+
+def test_a_call_within_the_band_records_without_a_warning(one_ear):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        one_ear.received(Call.linear_fm(79e3, 61e3, 2e-3))
+
+
+def test_the_out_of_band_share_is_that_of_the_calls_spectrum():
+    from batecho.echoes.received import out_of_band_share
+
+    fs = 400e3
+    t = np.arange(4000) / fs
+    # two tones of equal power, one in the band and one below it
+    call = Call(np.sin(2 * np.pi * 70e3 * t) + np.sin(2 * np.pi * 40e3 * t), fs)
+    assert out_of_band_share(call, (60e3, 80e3)) == pytest.approx(0.5, abs=1e-6)
+    assert out_of_band_share(call, (30e3, 80e3)) == pytest.approx(0.0, abs=1e-6)

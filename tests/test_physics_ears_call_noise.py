@@ -278,6 +278,7 @@ def test_the_received_echo_of_one_leaf_is_the_calls_spectrum_times_the_leafs_tra
     assert rel_err(got[bins], 2.0 * transfer * call_spectrum[bins]) <= 1e-8
 
 
+@pytest.mark.filterwarnings("ignore::batecho.CallBandWarning")  # (warned of on purpose)
 def test_a_call_reaching_beyond_the_band_is_heard_only_within_the_band():
     # An 80-40 kHz sweep holds half its energy below the 60-80 kHz band; the record holds only
     # the band's part (Y is zero outside it). The only energy outside comes from cutting y's

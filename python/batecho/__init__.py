@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._core import __version__
 from ._resources import memory_limit, set_memory_limit
+from .echoes.received import CallBandWarning
 from .echoes.simulate import Echoes, LeafSights, leaf_sights, lobe_members, simulate
 from .flight.kinematic import circle, figure_eight, line_to
 from .flight.mount import SonarMount
@@ -99,6 +100,7 @@ __all__ = [
     "Branches",
     "Branching",
     "Call",
+    "CallBandWarning",
     "ClearanceWarning",
     "Echoes",
     "Flight",

@@ -1,9 +1,11 @@
 """What a receiver records (docs/model.md §5b): the impulse response convolved with the emitted
 call (by FFT), truncated to the record, plus white Gaussian noise; and the matched filter's
-pulse-compressed output."""
+pulse-compressed output; and the warning for a call that lies largely outside the band.
+"""
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -11,6 +13,40 @@ import numpy as np
 from .._random import generator
 from .._validate import positive_scalar
 from ..sonar.call import Call
+
+
+class CallBandWarning(UserWarning):
+    """Much of a call's energy lies outside the sonar's ``band_hz``: the record holds only the
+    call's in-band part (docs/model.md §5b), so the rest is not heard."""
+
+
+#: The share of a call's energy outside ``band_hz`` above which recording it warns.
+CALL_OUT_OF_BAND_WARN = 0.1
+
+
+def out_of_band_share(call: Call, band_hz: tuple[float, float]) -> float:
+    """The share of ``call``'s energy (the power of its rFFT) at frequencies outside
+    ``band_hz = (f_lo, f_hi)`` (Hz)."""
+    power = np.abs(np.fft.rfft(call.samples)) ** 2
+    f = np.fft.rfftfreq(call.samples.size, 1.0 / call.fs)
+    lo, hi = band_hz
+    return float(power[(f < lo) | (f > hi)].sum() / power.sum())
+
+
+def warn_if_out_of_band(call: Call, band_hz: tuple[float, float], stacklevel: int = 2) -> None:
+    """Warn (:class:`CallBandWarning`) when more than :data:`CALL_OUT_OF_BAND_WARN` of
+    ``call``'s energy lies outside ``band_hz``; ``stacklevel`` as for ``warnings.warn``, from
+    the caller's frame."""
+    share = out_of_band_share(call, band_hz)
+    if share > CALL_OUT_OF_BAND_WARN:
+        lo, hi = band_hz
+        warnings.warn(
+            f"{share:.0%} of the call's energy lies outside the sonar's band_hz = "
+            f"({lo:g}, {hi:g}) Hz, and the record holds only the call's in-band part "
+            "(docs/model.md §5b); widen band_hz to hear the whole call",
+            CallBandWarning,
+            stacklevel=stacklevel + 1,
+        )
 
 
 def _check_call(call: Any, fs: float) -> Call:
@@ -67,4 +103,12 @@ def compressed(
     return matched_filter(received(impulse, fs, call, noise_rms, rng), call)
 
 
-__all__ = ["compressed", "matched_filter", "received"]
+__all__ = [
+    "CALL_OUT_OF_BAND_WARN",
+    "CallBandWarning",
+    "compressed",
+    "matched_filter",
+    "out_of_band_share",
+    "received",
+    "warn_if_out_of_band",
+]

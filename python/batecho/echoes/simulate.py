@@ -134,9 +134,12 @@ class Echoes(EqualByValue):
     def received(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
         """(p, [R,] n_samples) what the receivers record: the impulse responses convolved with
         ``call`` (by FFT), truncated to the record, plus white Gaussian noise of rms
-        ``noise_rms`` drawn from ``rng`` (a Generator, an int seed or None)."""
-        from .received import received
+        ``noise_rms`` drawn from ``rng`` (a Generator, an int seed or None). Only the call's
+        part within the sonar's ``band_hz`` is heard: more than a tenth of its energy outside
+        warns (:class:`CallBandWarning`)."""
+        from .received import _check_call, received, warn_if_out_of_band
 
+        warn_if_out_of_band(_check_call(call, self.sonar.fs), self.sonar.band_hz)
         return received(self.impulse, self.sonar.fs, call, noise_rms, rng)
 
     def compressed(self, call: Call, noise_rms: float = 0.0, rng: Any = None) -> np.ndarray:
@@ -145,9 +148,10 @@ class Echoes(EqualByValue):
         Without noise it is :attr:`impulse` filtered by the call's autocorrelation normalised
         to 1 at lag 0 (docs/model.md §5b): an echo arriving at ``t0`` peaks at ``t0``, higher
         than in :attr:`impulse` (a band-limited pulse summed over the autocorrelation's main
-        lobe)."""
-        from .received import compressed
+        lobe). A call largely outside the band warns, as for :meth:`received`."""
+        from .received import _check_call, compressed, warn_if_out_of_band
 
+        warn_if_out_of_band(_check_call(call, self.sonar.fs), self.sonar.band_hz)
         return compressed(self.impulse, self.sonar.fs, call, noise_rms, rng)
 
     # Exports -----------------------------------------------------------------------------
