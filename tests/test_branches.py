@@ -1,9 +1,10 @@
 """Branches as scatterers (docs/model.md §9): physical optics of a rigid finite cylinder with the
-leaves' normalisation. At broadside the amplitude is (L/2) sqrt(k a / pi); the delay is that of
-the near surface and the phase the stationary-phase constant pi/4; the sin(x)/x pattern follows
-the tilt; end-on a branch is far quieter; the pieces' rule does not change the echo beyond a
-stated tolerance; the Rust core equals the reference and the fast method stays within tol;
-bad input is refused by name."""
+leaves' normalisation. At broadside the amplitude is (L/2) sqrt(k a / pi) times the near-field
+factor D = (1 + a / (r cos(gamma)))^(-1/2); the delay is that of the near surface and the phase
+the stationary-phase constant pi/4; the sin(x)/x pattern follows the tilt; end-on a branch is
+far quieter; the pieces' rule does not change the echo beyond a stated tolerance; the Rust core
+equals the reference and the fast method stays within tol; bad input is refused by name. (The
+closed form against a direct quadrature of the Kirchhoff integral: tests/test_branches_po.py.)"""
 
 from __future__ import annotations
 
@@ -42,13 +43,14 @@ def wood(branches: Branches, sonar: Sonar = RECT, pose: Poses = ORIGIN):
 # ------------------------------------------------------------------------- one piece
 
 
-def test_at_broadside_the_amplitude_is_half_the_length_times_sqrt_ka_over_pi():
+def test_at_broadside_the_amplitude_is_half_the_length_times_sqrt_ka_over_pi_times_d():
     r0, a, length = 8.0, 0.05, 0.011  # one piece
     e = wood(tilted(r0, a, length, 0.0))
     assert e.n_pieces.tolist() == [1]
     k = wavenumbers(RECT)
-    # A = g G |f| / r^2 with G = 1 on the axis: the leaves' normalisation, L = k |f|
-    want = RECT.gain * 0.5 * length * np.sqrt(k * a / np.pi) / r0**2
+    # A = g G |f| D / r^2 with G = 1 on the axis: the leaves' normalisation, L = k |f|
+    D = (1.0 + a / r0) ** -0.5
+    want = RECT.gain * 0.5 * length * np.sqrt(k * a / np.pi) * D / r0**2
     np.testing.assert_allclose(np.abs(e.spectrum[0]), want, rtol=1e-12)
 
 
@@ -79,8 +81,9 @@ def test_the_sinc_pattern_follows_the_tilt(gamma_deg):
     sin_g, cos_g = math.sin(g), math.cos(g)
     k = wavenumbers(RECT)
     x = k * length * sin_g
+    D = (1.0 + a / (r0 * cos_g)) ** -0.5
     want = RECT.gain * 0.5 * length * np.sqrt(k * a * cos_g / np.pi) * np.abs(np.sin(x) / x)
-    want /= r0**2
+    want *= D / r0**2
     broadside = RECT.gain * 0.5 * length * np.sqrt(k * a / np.pi) / r0**2
     np.testing.assert_allclose(np.abs(e.spectrum[0]), want, rtol=1e-9, atol=1e-9 * broadside.max())
 

@@ -41,6 +41,18 @@ def _cylinder_po(k, a, length, cos_g, sin_g):
     return 0.5 * length * np.sqrt(k * a * cos_g / math.pi) * _sinc(k * length * sin_g)
 
 
+def _divergence(a, r, cos_g, cos_half_beta=1.0):
+    """D = (1 + a / (r cos(beta/2) cos(gamma)))^(-1/2): the near-field factor of a cylinder's
+    echo (docs/model.md §9). Round the circumference the sonar's spherical wave adds the path
+    a^2 phi^2 / (2 r) each way to the plane wave's a phi^2 cos(gamma) / 2, so the stationary
+    phase's width, and the echo, shrink by D; r is the reference point's range (the harmonic
+    mean of the two for a receiver of its own), D -> 1 in the far field. Written as
+    sqrt(x / (x + a)), x = r cos(beta/2) cos(gamma), which is 0, not a division by zero, at
+    cos(gamma) = 0."""
+    x = r * cos_half_beta * cos_g
+    return np.sqrt(x / (x + a))
+
+
 def _narrowest_sigma(sonar: Sonar) -> float:
     """The narrowest Gaussian width (rad) of the emitter's and every receiving beam."""
     tx = cast(Beam, sonar.beam)
@@ -150,13 +162,14 @@ def _pieces(branches: Branches, sonar: Sonar, poses: Poses, i: int, k_max: float
 def _wood_spectrum(
     sonar: Sonar, r, G, length, a, cg, sg, factor, f, w, bistatic=None
 ) -> np.ndarray:
-    """The branch pieces' windowed band spectrum: amplitude g G f(k) / r^2 times the shading
-    factor (and absorption), phase -2 k (r + l^2 cos^2(gamma) / (24 r)) + pi/4.
+    """The branch pieces' windowed band spectrum: amplitude g G f(k) D / r^2 times the shading
+    factor (and absorption), D the near-field factor ``_divergence``, phase
+    -2 k (r + l^2 cos^2(gamma) / (24 r)) + pi/4.
 
     Heard by a receiver of its own (``bistatic = (r_tx, r_rx, cos(beta/2))``, docs/model.md
     §9): ``r`` is the delay range (r_tx + r_rx)/2, the spreading r_tx r_rx, the factor
     f(k cos(beta/2)) with gamma from the bisector, and the Fresnel lag's range the harmonic
-    mean 2 r_tx r_rx / (r_tx + r_rx)."""
+    mean 2 r_tx r_rx / (r_tx + r_rx), which is also D's range."""
     v = sonar.sound_speed
     k = 2.0 * np.pi * f / v
     Y = np.zeros(f.shape, dtype=np.complex128)
@@ -165,11 +178,12 @@ def _wood_spectrum(
         atm = sonar.absorption
         alpha = iso9613_alpha_db_per_m(f, atm.temperature_c, atm.relative_humidity, atm.pressure_pa)
     for q in range(len(r)):
-        spread, k_eff, r_lag = r[q] ** 2, k, r[q]
+        spread, k_eff, r_lag, cb = r[q] ** 2, k, r[q], 1.0
         if bistatic is not None:
             r_tx, r_rx, cb = (x[q] for x in bistatic)
             spread, k_eff, r_lag = r_tx * r_rx, k * cb, 2.0 * r_tx * r_rx / (r_tx + r_rx)
         A = sonar.gain * G[q] * factor[q] * _cylinder_po(k_eff, a[q], length[q], cg[q], sg[q])
+        A = A * _divergence(a[q], r_lag, cg[q], cb)
         if sonar.spreading:
             A = A / spread
         if alpha is not None:
