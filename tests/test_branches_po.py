@@ -180,8 +180,9 @@ def test_beyond_the_first_zero_of_j1_the_disk_quadrature_changes_sign():
 
 @pytest.mark.xfail(
     strict=True,
-    reason="the physical-optics leaf takes |2 J1(x)/x| with psi = -pi/2 (docs/model.md §4); "
-    "physical optics is signed, and between J1's first two zeros the echo's sign is flipped",
+    reason="the physical-optics leaf takes |2 J1(x)/x| with psi = -pi/2, as the model states "
+    "it (docs/model.md §4); physical optics is signed, and between J1's first two zeros the "
+    "echo's sign is flipped",
 )
 def test_beyond_the_first_zero_of_j1_the_physical_optics_leaf_changes_sign():
     f_po, f_leaf = disk_ratio(math.radians(5.0))
@@ -253,9 +254,6 @@ def rust_simulate(scene, sonar, pose):
     return batecho.simulate(scene, sonar, pose, method="exact")
 
 
-# the Rust core lacks §9's near-field factor D = (1 + a / (r cos(gamma)))^(-1/2), which the
-# reference has; where D is beyond the tolerance its echo is expected to fail until it does
-LACKS_D = pytest.mark.xfail(strict=True, reason="the Rust core lacks the near-field factor D")
 BOTH = [pytest.param(reference.simulate, id="reference"), pytest.param(rust_simulate, id="rust")]
 
 
@@ -296,9 +294,7 @@ def one_piece_quadrature(name: str):
     return bins, np.array([po_echo(k, SONAR, start, end, a) for k in k_band[bins]])
 
 
-@pytest.mark.parametrize(
-    "simulate", [BOTH[0], pytest.param(rust_simulate, id="rust", marks=LACKS_D)]
-)
+@pytest.mark.parametrize("simulate", BOTH)
 @pytest.mark.parametrize("name", list(ONE_PIECE))
 def test_one_pieces_spectrum_has_the_quadratures_amplitude_to_kappa_to_the_minus_three_halves(
     simulate, name
@@ -330,24 +326,23 @@ def test_one_pieces_spectrum_has_the_quadratures_phase_and_delay(simulate, name)
 
 
 # long segments near the sonar, cut into hundreds of pieces, against one quadrature of the whole
-# (the Rust core, without D, is 2.7 %, 12.8 % and 1.9 % off in the first three, beyond 1/(ka)
-# at some bins)
+# (without D the first three are 2.7 %, 12.8 % and 1.9 % off, beyond 1/(ka) at some bins)
 SEGMENTS = {
-    "thin, broadside, 1 m": (([1.0, 0.0, -0.6], [1.0, 0.0, 0.6], 0.05), LACKS_D),
-    "trunk, broadside, 0.55 m": (([0.7, 0.0, -0.4], [0.7, 0.0, 0.4], 0.15), LACKS_D),
-    "tilted across the beam": (([1.0, -0.2, -0.5], [1.3, 0.2, 0.5], 0.04), LACKS_D),
-    "no specular point": (([1.0, 0.1, 0.2], [1.6, 0.3, 0.6], 0.03), ()),
+    "thin, broadside, 1 m": ([1.0, 0.0, -0.6], [1.0, 0.0, 0.6], 0.05),
+    "trunk, broadside, 0.55 m": ([0.7, 0.0, -0.4], [0.7, 0.0, 0.4], 0.15),
+    "tilted across the beam": ([1.0, -0.2, -0.5], [1.3, 0.2, 0.5], 0.04),
+    "no specular point": ([1.0, 0.1, 0.2], [1.6, 0.3, 0.6], 0.03),
 }
 SEGMENT_CASES = [
-    pytest.param(name, simulate, id=f"{name}-{impl}", marks=marks if impl == "rust" else ())
-    for name, (_, marks) in SEGMENTS.items()
+    pytest.param(name, simulate, id=f"{name}-{impl}")
+    for name in SEGMENTS
     for impl, simulate in (("reference", reference.simulate), ("rust", rust_simulate))
 ]
 
 
 def test_the_near_field_quadrature_is_converged():
     name = "thin, broadside, 1 m"
-    start, end, a = SEGMENTS[name][0]
+    start, end, a = SEGMENTS[name]
     _, k, coarse = segment_quadrature(name)  # (the grid the tests use: 2 pi per panel)
     fine = po_echo(k[-1], SONAR, start, end, a, per_panel_rad=np.pi)
     assert abs(fine - coarse[-1]) <= 1e-10 * abs(coarse[-1])
@@ -355,7 +350,7 @@ def test_the_near_field_quadrature_is_converged():
 
 @functools.cache
 def segment_quadrature(name: str):
-    start, end, a = SEGMENTS[name][0]
+    start, end, a = SEGMENTS[name]
     k_band = 2.0 * np.pi * SONAR.freqs / SONAR.sound_speed
     bins = np.linspace(0, k_band.size - 1, 3).round().astype(int)
     return bins, k_band[bins], np.array([po_echo(k, SONAR, start, end, a) for k in k_band[bins]])
@@ -363,7 +358,7 @@ def segment_quadrature(name: str):
 
 @pytest.mark.parametrize(("name", "simulate"), SEGMENT_CASES)
 def test_the_pieces_of_a_near_segment_sum_to_its_quadrature_to_order_1_over_ka(name, simulate):
-    start, end, a = SEGMENTS[name][0]
+    start, end, a = SEGMENTS[name]
     echoes = simulate(Scene(None, branches=Branches([start], [end], [a])), SONAR, ORIGIN)
     assert echoes.n_pieces[0] > 100  # not in the far field of the whole segment
     bins, k, want = segment_quadrature(name)
@@ -373,7 +368,7 @@ def test_the_pieces_of_a_near_segment_sum_to_its_quadrature_to_order_1_over_ka(n
 
 
 SPECULAR_CASES = [
-    pytest.param(name, simulate, id=f"{name}-{impl}", marks=LACKS_D if impl == "rust" else ())
+    pytest.param(name, simulate, id=f"{name}-{impl}")
     for name in list(SEGMENTS)[:3]  # (the last has no specular point)
     for impl, simulate in (("reference", reference.simulate), ("rust", rust_simulate))
 ]
@@ -385,7 +380,7 @@ def test_with_a_specular_point_the_pieces_amplitude_is_the_quadratures_to_a_thou
 ):
     # kappa^-3/2 at the specular point (gamma = 0), plus the thousandth of a broadside echo to
     # which the pieces' rule holds a segment's echo (docs/model.md §9)
-    start, end, a = SEGMENTS[name][0]
+    start, end, a = SEGMENTS[name]
     echoes = simulate(Scene(None, branches=Branches([start], [end], [a])), SONAR, ORIGIN)
     bins, k, want = segment_quadrature(name)
     got = echoes.spectrum[0][bins]

@@ -1,7 +1,8 @@
 //! A counting branch piece as the kernels take it ([`BranchTerm`]), the one or two points its
 //! echo is summed as, and the exact kernel that adds a piece to every band bin.
 //!
-//! A piece's term at bin k is `amp f(k) exp(j pi/4) exp(-j 2 k r)` (times absorption), with
+//! A piece's term at bin k is `amp f(k) exp(j pi/4) exp(-j 2 k r)` (times absorption; `amp`
+//! holds the near-field factor [`crate::physics::branch::divergence`]), with
 //! `f = c0 sqrt(k) sinc(k X)`, `c0 = (l/2) sqrt(a cos(gamma) s / pi)`, `X = l sin(gamma) s`,
 //! `s = cos(beta/2)` of the bistatic angle (1 heard at the emitter)
 //! ([`crate::physics::branch::cylinder_po`]), and `r` the reference point's range plus the
@@ -20,7 +21,7 @@ use crate::echo::tables::{lanes, lanes_mut, BandTables, LANES, POLY_BLOCK, POLY_
 use crate::echo::term::leaf_amp;
 use crate::lobe::{HeardPiece, PieceMember};
 use crate::physics::bistatic::lag_range;
-use crate::physics::branch::{fresnel_lag, sinc, CYLINDER_PSI};
+use crate::physics::branch::{divergence, fresnel_lag, sinc, CYLINDER_PSI};
 use crate::physics::phase::CyclesPerBin;
 use crate::sonar::Sonar;
 use multiversion::multiversion;
@@ -29,7 +30,8 @@ use std::f64::consts::PI;
 /// A counting branch piece, in SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BranchTerm {
-    /// `g G / r^2` (or `g G` without spreading), times any shading factor.
+    /// `g G D / r^2` (or `g G D` without spreading), `D` the near-field factor
+    /// ([`divergence`]), times any shading factor.
     pub amp: f64,
     /// The range of the piece's reference point (m): its spreading and absorption, and, with
     /// the piece's Fresnel lag, its delay.
@@ -49,7 +51,7 @@ pub struct BranchTerm {
 /// The term of a counting piece.
 pub fn branch_term(sonar: &Sonar, m: &PieceMember) -> BranchTerm {
     BranchTerm {
-        amp: leaf_amp(sonar, m.gain, m.range),
+        amp: leaf_amp(sonar, m.gain, m.range) * divergence(m.radius, m.range, 1.0, m.cos_gamma),
         range: m.range,
         length: m.length,
         radius: m.radius,
@@ -61,19 +63,22 @@ pub fn branch_term(sonar: &Sonar, m: &PieceMember) -> BranchTerm {
 }
 
 /// The term of a piece heard by a receiver of its own (docs/model.md §9): the bistatic
-/// amplitude `g S_tx S_rx / (r_tx r_rx)`, the delay range `(r_tx + r_rx)/2` (absorption over
-/// `r_tx + r_rx`), the tilt from the bisector's broadside, `k cos(beta/2)` in the factor.
+/// amplitude `g S_tx S_rx D / (r_tx r_rx)` (`D` at the harmonic mean of the two ranges), the
+/// delay range `(r_tx + r_rx)/2` (absorption over `r_tx + r_rx`), the tilt from the
+/// bisector's broadside, `k cos(beta/2)` in the factor.
 pub fn heard_branch_term(sonar: &Sonar, m: &HeardPiece) -> BranchTerm {
     let h = &m.heard;
+    let lag_range = lag_range(h.tx.range, h.rx.range);
+    let d = divergence(m.radius, lag_range, m.cos_half_bistatic, m.cos_gamma);
     BranchTerm {
-        amp: heard_amplitude(sonar, h),
+        amp: heard_amplitude(sonar, h) * d,
         range: h.range(),
         length: m.length,
         radius: m.radius,
         cos_gamma: m.cos_gamma,
         sin_gamma: m.sin_gamma,
         k_scale: m.cos_half_bistatic,
-        lag_range: lag_range(h.tx.range, h.rx.range),
+        lag_range,
     }
 }
 

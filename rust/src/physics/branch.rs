@@ -1,7 +1,7 @@
 //! Branch scattering (docs/model.md §9): physical optics (Kirchhoff) of a rigid finite circular
-//! cylinder, the point of a piece's near surface that its echo is referred to, and the rule
-//! that cuts a segment into pieces short enough to be in their own far field, with the mean
-//! Fresnel lag of a piece's near-field phase.
+//! cylinder and its near-field factor, the point of a piece's near surface that its echo is
+//! referred to, and the rule that cuts a segment into pieces short enough to be in their own
+//! far field, with the mean Fresnel lag of a piece's near-field phase.
 //!
 //! With the leaves' normalisation (a scatterer contributes `L exp(-j psi) / k` per unit gain),
 //! a piece of length `l`, radius `a`, tilted by `gamma` from broadside has
@@ -36,6 +36,21 @@ pub fn sinc(x: f64) -> f64 {
 #[inline]
 pub fn cylinder_po(k: f64, radius: f64, length: f64, cos_gamma: f64, sin_gamma: f64) -> f64 {
     0.5 * length * (k * radius * cos_gamma / PI).sqrt() * sinc(k * length * sin_gamma)
+}
+
+/// The near-field factor of a cylinder's echo (docs/model.md §9),
+/// `D = (1 + a / (r cos(beta/2) cos(gamma)))^(-1/2)`: round the circumference the sonar's
+/// spherical wave adds the path `a^2 phi^2 / (2 r)` each way to the plane wave's
+/// `a phi^2 cos(gamma) / 2`, which narrows the stationary phase and shrinks the echo (the
+/// divergence of the echo off a convex surface; 1 far away, whatever the frequency). `range`
+/// is the reference point's (the harmonic mean of the two ranges for a receiver of its own,
+/// `cos_half_beta` its bistatic angle's; 1 heard at the emitter). Written as
+/// `sqrt(x / (x + a))`, `x = r cos(beta/2) cos(gamma)`, as the NumPy reference writes it: 0,
+/// not a division by zero, at `cos(gamma) = 0`.
+#[inline]
+pub fn divergence(radius: f64, range: f64, cos_half_beta: f64, cos_gamma: f64) -> f64 {
+    let x = range * cos_half_beta * cos_gamma;
+    (x / (x + radius)).sqrt()
 }
 
 /// A piece as a sonar at `p` sees it.
