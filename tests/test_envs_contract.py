@@ -199,3 +199,12 @@ def test_without_a_render_mode_nothing_is_drawn_and_an_undeclared_mode_is_refuse
     assert "ansi" not in EchoFlightEnv.metadata["render_modes"]
     with pytest.raises(ValueError, match="render_mode"):
         EchoFlightEnv(**EMPTY, render_mode="ansi")
+
+
+def test_the_native_batch_declares_the_render_frame_rate_as_sync_does():
+    # (Gymnasium's vector HumanRendering needs it; its RecordVideo falls back to 30 fps)
+    kw = {**EMPTY, "pulse_rate_hz": 10.0, "render_mode": "rgb_array"}
+    native = gym.make_vec(ENV_ID, num_envs=2, **kw)
+    sync = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="sync", **kw)
+    assert native.metadata == sync.metadata
+    assert native.metadata["render_fps"] == 10.0

@@ -58,6 +58,9 @@ class EchoFlightVectorEnv(VectorEnv):
         first = self.envs[0]
         self.num_envs = len(self.envs)
         self.render_mode = first.render_mode
+        # (its frame rate too, as SyncVectorEnv copies it: Gymnasium's vector HumanRendering
+        # needs it, and its RecordVideo would play the frames at 30 per second)
+        self.metadata = {**type(self).metadata, "render_fps": first.metadata["render_fps"]}
         self.single_observation_space = first.observation_space
         self.single_action_space = first.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
