@@ -81,6 +81,15 @@ def test_an_episode_ending_on_its_last_step_terminates_and_is_not_truncated(make
     assert (terminated, truncated, info[ending]) == (True, False, True)
 
 
+def test_a_drone_wider_than_the_clearance_horizon_does_not_collide_in_open_air():
+    # (clearance_m was clipped to 2 m, below a 2.5 m radius: every step was a collision)
+    env = EchoFlightEnv(**{**EMPTY, "drone_radius_m": 2.5, "altitude_m": 5.0, "width_m": 20.0})
+    env.reset(seed=0)
+    _, _, terminated, _, info = env.step(np.zeros(4, np.float32))
+    assert not terminated and not info["collision"]
+    assert info["clearance_m"] >= env.drone_radius_m
+
+
 # ---------------------------------------------------------------------------------- seeds
 
 

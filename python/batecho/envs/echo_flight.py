@@ -98,7 +98,8 @@ EAR_SEPARATION_M = 0.05
 #: Each ear's turn outward (deg), as a bat's pinnae point to either side of the call's axis.
 EAR_YAW_DEG = 25.0
 
-#: Clearances (m) in ``info["clearance_m"]`` are exact up to this and clipped to it.
+#: Clearances (m) in ``info["clearance_m"]`` are exact up to this (or up to the drone's radius,
+#: if larger: a clipped clearance must not read as a collision) and clipped to it.
 CLEARANCE_HORIZON_M = 2.0
 
 #: Body velocities in the observation are clipped to +- this (m/s).
@@ -302,6 +303,8 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.trees_from_m, self.altitude_m = float(trees_from_m), float(altitude_m)
         self.goal_radius_m, self.ceiling_m = float(goal_radius_m), float(ceiling_m)
         self.drone_radius_m = float(drone_radius_m)
+        #: Clearances (m) are exact up to this and clipped to it (:data:`CLEARANCE_HORIZON_M`).
+        self.clearance_horizon_m = max(CLEARANCE_HORIZON_M, self.drone_radius_m)
         self.pulse_rate_hz, self.dt, self.n_substeps = float(pulse_rate_hz), float(dt), n_sub
         n_pulses = max_time_s * pulse_rate_hz
         if not math.isfinite(n_pulses):
@@ -538,9 +541,9 @@ class EchoFlightEnv(gym.Env[dict[str, Any], np.ndarray]):
     def _path_clearance(self, path: np.ndarray) -> float:
         """The smallest distance (m) from ``path`` (k, 3) to the forest's leaves, branches
         (with ``branches``) and bark and to the ground, exact up to
-        :data:`CLEARANCE_HORIZON_M` and clipped there."""
+        :attr:`clearance_horizon_m` and clipped there."""
         assert self.forest is not None
-        d = min(float(path[:, 2].min()), CLEARANCE_HORIZON_M)
+        d = min(float(path[:, 2].min()), self.clearance_horizon_m)
         # (below the ground, d < 0: no distance to the forest can be smaller)
         if self.forest.n_trees and d > 0.0:
             d = self.echo_scene().min_clearance(path, d)
