@@ -9,6 +9,7 @@
 //! rayon's default (`RAYON_NUM_THREADS`, else one thread per core).
 
 use batecho::interrupt::Interrupt;
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::{PyResult, Python};
 use rayon::{ThreadPool, ThreadPoolBuilder};
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
@@ -84,8 +85,11 @@ pub(crate) fn interruptible<T: Send + 'static>(
                     }
                 }
             }
+            // (the job sends before it drops the sender; were it dropped unrun, say so)
             Err(RecvTimeoutError::Disconnected) => {
-                unreachable!("the job sends its result before it drops the sender")
+                return Err(PyRuntimeError::new_err(
+                    "the worker thread ended without a result",
+                ))
             }
         }
     }
