@@ -1,4 +1,5 @@
-"""Helpers for the tests: relative errors and scene builders in a pose's frame."""
+"""Helpers for the tests: relative errors, scene builders in a pose's frame, and a small
+EchoFlight forest."""
 
 from __future__ import annotations
 
@@ -48,3 +49,16 @@ def run_script_with_threads(script: str, threads: int, path) -> dict:
     subprocess.run([sys.executable, "-c", script, str(path)], env=env, check=True)
     with np.load(path) as f:
         return {k: f[k] for k in f.files}
+
+
+#: EchoFlightEnv keywords for a small forest that grows in a fraction of a second: one tree
+#: variant of three branches.
+SMALL_FOREST = {
+    "density": 0.06,
+    "length_m": 12.0,
+    "width_m": 8.0,
+    "trees_from_m": 2.5,
+    "variants": 1,
+    "tree_params": {"n_branches": 3},
+    "max_time_s": 15.0,
+}

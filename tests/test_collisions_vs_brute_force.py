@@ -15,20 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _helpers import SMALL_FOREST
 
 import batecho
 from batecho.envs import EchoFlightEnv
 
-#: A small forest that grows in a fraction of a second (as in tests/test_envs.py).
-SMALL = {
-    "density": 0.06,
-    "length_m": 12.0,
-    "width_m": 8.0,
-    "trees_from_m": 2.5,
-    "variants": 1,
-    "tree_params": {"n_branches": 3},
-    "max_time_s": 15.0,
-}
+SMALL = SMALL_FOREST
 
 #: Distances agree to this, relative to the larger of 1 m and the point's largest coordinate.
 REL_TOL = 1e-14

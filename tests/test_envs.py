@@ -10,6 +10,7 @@ import pickle
 import gymnasium as gym
 import numpy as np
 import pytest
+from _helpers import SMALL_FOREST
 from gymnasium.utils.env_checker import check_env
 
 import batecho
@@ -17,16 +18,7 @@ from batecho.envs import ENV_ID, EchoFlightEnv
 from batecho.envs.baselines import blind, echo_reactive
 from batecho.envs.echo_flight import DEFAULT_BRANCHES, DEFAULT_SHADING
 
-#: A small forest that grows in a fraction of a second: one tree variant of three branches.
-SMALL = {
-    "density": 0.06,
-    "length_m": 12.0,
-    "width_m": 8.0,
-    "trees_from_m": 2.5,
-    "variants": 1,
-    "tree_params": {"n_branches": 3},
-    "max_time_s": 15.0,
-}
+SMALL = SMALL_FOREST
 
 
 def run(env: gym.Env, policy, seed: int, max_steps: int = 10_000):

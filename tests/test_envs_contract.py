@@ -13,22 +13,14 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from _helpers import SMALL_FOREST
 
 from batecho.envs import ENV_ID, EchoFlightEnv
 from batecho.envs.baselines import blind
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: A small forest that grows in a fraction of a second (as in tests/test_envs.py).
-SMALL = {
-    "density": 0.06,
-    "length_m": 12.0,
-    "width_m": 8.0,
-    "trees_from_m": 2.5,
-    "variants": 1,
-    "tree_params": {"n_branches": 3},
-    "max_time_s": 15.0,
-}
+SMALL = SMALL_FOREST
 EMPTY = {**SMALL, "density": 0.0}
 
 #: The 16 corners of the action box.
